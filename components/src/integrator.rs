@@ -1,0 +1,51 @@
+use bevy_ecs::prelude::Resource;
+
+use crate::{Columns, PerParticle};
+
+/// Time integrator of the DEM equations of motion.
+#[derive(Resource, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IntegratorKind {
+    /// Gear predictor-corrector with five values (x, v, a, b = da/dt, c = db/dt),
+    /// Allen & Tildesley (1987), Appendix E.
+    Gear,
+    /// Velocity Verlet (Swope et al. 1982).
+    VelocityVerlet,
+}
+
+/// Higher time derivatives of the position kept by the Gear predictor-corrector
+/// (acceleration, its first and second time derivative), one row per particle.
+/// Allocated only when the scene uses Gear.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct GearState {
+    pub acc: Columns,
+    pub jerk: Columns,
+    pub snap: Columns,
+    /// Corrector coefficient alpha_0: 19/120, or 19/90 when forces depend on velocity.
+    pub alpha0: f64,
+}
+
+impl PerParticle for GearState {
+    fn resize_rows(&mut self, n: usize) {
+        for col in self
+            .acc
+            .iter_mut()
+            .chain(&mut self.jerk)
+            .chain(&mut self.snap)
+        {
+            col.resize(n, 0.0);
+        }
+    }
+    fn permute_rows(&mut self, perm: &[u32]) {
+        for col in self
+            .acc
+            .iter_mut()
+            .chain(&mut self.jerk)
+            .chain(&mut self.snap)
+        {
+            crate::particles::permute_column(col, perm);
+        }
+    }
+    fn bytes_per_row(&self) -> usize {
+        9 * 8
+    }
+}

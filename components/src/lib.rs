@@ -1,0 +1,28 @@
+//! grainflow ECS data: plain components and resources, no behaviour.
+//!
+//! Per-particle data lives in structure-of-arrays blocks ([`Particles`], [`GearState`])
+//! owned by the ECS world as resources; the hot loops of `grainflow-systems` run on their
+//! contiguous columns. Any per-particle block implements [`PerParticle`] so that particle
+//! re-sorting and insertion keep every block aligned without the owner of the block being
+//! known to the neighbour-list or insertion systems.
+
+pub mod clock;
+pub mod health;
+pub mod inflow;
+pub mod integrator;
+pub mod material;
+pub mod neighbour;
+pub mod particles;
+pub mod walls;
+
+pub use clock::SimClock;
+pub use health::RunHealth;
+pub use inflow::{Inflow, InflowRegion, Inflows};
+pub use integrator::{GearState, IntegratorKind};
+pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
+pub use neighbour::{NeighbourSettings, Reorder, VerletList};
+pub use particles::{Particles, PerParticle};
+pub use walls::{Wall, WallShape, Walls};
+
+/// Three coordinate columns of one per-particle vector quantity (x, y, z).
+pub type Columns = [Vec<f64>; 3];

@@ -1,0 +1,37 @@
+use bevy_ecs::prelude::Resource;
+
+use crate::Columns;
+
+/// Verlet-list settings: the skin added to the contact distance, and the particle
+/// re-sorting policy.
+#[derive(Resource, Debug, Clone, Copy)]
+pub struct NeighbourSettings {
+    pub skin: f64,
+    /// Re-sort particles in cell order at every `sort_every`-th rebuild (0: never).
+    pub sort_every: u32,
+}
+
+/// Full Verlet neighbour list in compressed rows: the neighbours of particle `i` are
+/// `neighbours[start[i]..start[i+1]]`, in cell order. Every pair appears twice (i in j's
+/// row and j in i's), so each particle sums its own forces in a fixed order and no two
+/// threads ever write the same particle.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct VerletList {
+    pub start: Vec<u32>,
+    pub neighbours: Vec<u32>,
+    /// Positions at the last rebuild.
+    pub reference: Columns,
+    /// Set by systems that change the particle set (insertion) to force a rebuild.
+    pub stale: bool,
+    pub builds: u64,
+    pub sorts: u64,
+    /// Largest radius present at the last rebuild.
+    pub max_radius: f64,
+}
+
+/// A permutation of the particle rows applied this step (`new row k = old row perm[k]`),
+/// published by the neighbour-list system for every other per-particle block.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct Reorder {
+    pub perm: Option<Vec<u32>>,
+}

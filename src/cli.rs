@@ -1,0 +1,266 @@
+//! The `grainflow` command line: `run` and `check`.
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::run::{default_out_dir, Simulation};
+use crate::scene::{self, SceneError};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "grainflow",
+    version,
+    about = "Particles in viscous fluid: DEM + FEM fictitious-domain simulator"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run a scene and write particles.h5, particles.xdmf and summary.json.
+    Run(RunArgs),
+    /// Validate a scene; print its schedule, particle count and stable time steps.
+    Check(CheckArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    pub scene: PathBuf,
+    /// Output directory (default out/<scene name>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Run until this simulated time, s (default: the scene's end_time).
+    #[arg(long, conflicts_with = "steps")]
+    pub until: Option<f64>,
+    /// Run this many steps.
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Write a Chrome/Perfetto trace of every system to FILE.
+    #[arg(long)]
+    pub trace: Option<PathBuf>,
+    /// Override a scene field, e.g. --set simulation.dt=2e-6 --set walls.0.remove_at=1.0
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    pub scene: PathBuf,
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+/// Exit codes: 0 ok, 1 failure during a run, 2 bad input.
+pub fn main_with(cli: Cli) -> ExitCode {
+    match cli.command {
+        Command::Run(args) => run(args),
+        Command::Check(args) => check(args),
+    }
+}
+
+fn bad_input(e: SceneError) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(2)
+}
+
+fn check(args: CheckArgs) -> ExitCode {
+    let scene = match scene::load(&args.scene, &args.set) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    let dt = scene.simulation.dt;
+    let allowed = scene.simulation.allow_unstable_dt;
+    let mut probe = scene.clone();
+    probe.simulation.allow_unstable_dt = true;
+    let sim = match Simulation::new(probe, &args.scene, None) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    let p = sim.world.resource::<grainflow_components::Particles>();
+    println!("scene      {}", args.scene.display());
+    println!(
+        "particles  {} placed, {} by inflow",
+        p.len(),
+        scene.inflows.iter().map(|i| i.total).sum::<u64>()
+    );
+    println!(
+        "materials  {}",
+        scene
+            .materials
+            .iter()
+            .map(|m| m.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!("walls      {}", scene.walls.len());
+    println!(
+        "integrator {:?}, dt = {dt:.3e} s, end_time = {} s ({} steps)",
+        scene.simulation.integrator,
+        scene.simulation.end_time,
+        (scene.simulation.end_time / dt).round()
+    );
+    println!("schedule (one step, in order):");
+    let mut last = None;
+    for (set, name) in &sim.step_systems {
+        if last != Some(*set) {
+            println!("  {set:?}");
+            last = Some(*set);
+        }
+        println!("    {name}");
+    }
+    let mut verdict = ExitCode::SUCCESS;
+    match &sim.estimate {
+        Some(est) => {
+            println!("stable time step:");
+            println!("  Rayleigh time step          {:.3e} s", est.rayleigh);
+            println!(
+                "  Hertz contact time          {:.3e} s (impact speed {:.3} m/s)",
+                est.contact_time, est.impact_speed
+            );
+            println!("  limit min(0.4 dt_R, t_c/10) {:.3e} s", est.limit);
+            println!("  recommended (0.2 dt_R, t_c/20) {:.3e} s", est.recommended);
+            if dt > est.limit {
+                if allowed {
+                    println!("warning: dt = {dt:.3e} s exceeds the stable limit {:.3e} s (allowed by simulation.allow_unstable_dt)", est.limit);
+                } else {
+                    eprintln!(
+                        "error: {}: field `simulation.dt`: dt = {dt:.3e} s exceeds the stable limit {:.3e} s; expected dt <= {:.3e} or simulation.allow_unstable_dt = true",
+                        args.scene.display(),
+                        est.limit,
+                        est.limit
+                    );
+                    verdict = ExitCode::from(2);
+                }
+            } else if dt > est.recommended {
+                println!("warning: dt = {dt:.3e} s is above the recommended {:.3e} s: contacts are resolved with few steps", est.recommended);
+            } else {
+                println!("  dt = {dt:.3e} s is within the recommended step");
+            }
+        }
+        None => println!("stable time step: no particles"),
+    }
+    verdict
+}
+
+fn init_tracing(trace: Option<&Path>) -> Option<tracing_chrome::FlushGuard> {
+    use tracing_subscriber::prelude::*;
+    let filter =
+        tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into());
+    let fmt = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_target(false);
+    match trace {
+        Some(path) => {
+            let (chrome, guard) = tracing_chrome::ChromeLayerBuilder::new()
+                .file(path)
+                .include_args(true)
+                .build();
+            tracing_subscriber::registry()
+                .with(filter)
+                .with(fmt)
+                .with(chrome)
+                .init();
+            Some(guard)
+        }
+        None => {
+            tracing_subscriber::registry().with(filter).with(fmt).init();
+            None
+        }
+    }
+}
+
+fn run(args: RunArgs) -> ExitCode {
+    let _guard = init_tracing(args.trace.as_deref());
+    let scene = match scene::load(&args.scene, &args.set) {
+        Ok(s) => s,
+        Err(e) => return bad_input(e),
+    };
+    let dt = scene.simulation.dt;
+    let steps = match (args.steps, args.until) {
+        (Some(n), _) => n,
+        (None, Some(t)) if t.is_finite() && t >= 0.0 => (t / dt).round() as u64,
+        (None, Some(t)) => {
+            return bad_input(SceneError {
+                file: args.scene.clone(),
+                field: "--until".into(),
+                message: format!("expected a time >= 0, got {t}"),
+            })
+        }
+        (None, None) => (scene.simulation.end_time / dt).round() as u64,
+    };
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if threads == 0 {
+        return bad_input(SceneError {
+            file: args.scene.clone(),
+            field: "--threads".into(),
+            message: "expected at least 1".into(),
+        });
+    }
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| default_out_dir(&args.scene));
+    let interval = scene.simulation.output_interval;
+    let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: cannot start {threads} threads: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    pool.install(|| {
+        let mut sim = match Simulation::new(scene, &args.scene, Some((&out_dir, interval))) {
+            Ok(s) => s,
+            Err(e) => return bad_input(e),
+        };
+        tracing::info!(
+            "{}: {} particles, {} steps of {:.3e} s on {threads} threads -> {}",
+            args.scene.display(),
+            sim.world.resource::<grainflow_components::Particles>().len(),
+            steps,
+            dt,
+            out_dir.display()
+        );
+        let report = sim.run(steps);
+        let summary = sim.summary(&report, threads);
+        let summary_path = out_dir.join("summary.json");
+        if let Err(e) = std::fs::write(&summary_path, serde_json::to_string_pretty(&summary).expect("json") + "\n") {
+            eprintln!("error: cannot write {}: {e}", summary_path.display());
+            return ExitCode::from(1);
+        }
+        let rate = report.particle_steps / report.wall_seconds.max(1e-12);
+        let sim_time = sim.world.resource::<grainflow_components::SimClock>().time;
+        let remaining = (sim.scene.simulation.end_time - sim_time).max(0.0);
+        let per_sim_second = report.wall_seconds / (report.steps as f64 * dt).max(1e-300);
+        println!(
+            "{} steps in {:.2} s: {:.3e} particle-steps/s ({:.3e} per core); {:.1} bytes/particle of state",
+            report.steps,
+            report.wall_seconds,
+            rate,
+            rate / threads as f64,
+            sim.bytes_per_particle()
+        );
+        if remaining > 0.0 {
+            println!(
+                "projected wall time to end_time = {} s: {:.0} s more at this rate (particle count may change)",
+                sim.scene.simulation.end_time,
+                remaining * per_sim_second
+            );
+        }
+        match report.failure {
+            Some(f) => {
+                eprintln!("error: {f}; output up to the last good frame kept in {}", out_dir.display());
+                ExitCode::from(1)
+            }
+            None => ExitCode::SUCCESS,
+        }
+    })
+}

@@ -1,0 +1,9 @@
+//! grainflow: solid particles in viscous fluid. The library behind the `grainflow` CLI:
+//! scene files, world building, schedules, run loop and output.
+pub mod build;
+pub mod cli;
+pub mod lammps;
+pub mod output;
+pub mod run;
+pub mod scene;
+pub mod stability;

@@ -1,0 +1,260 @@
+//! A simulation: the world built from a scene, its start-up and step schedules, the run
+//! loop with progress reporting, and the run report (`summary.json`).
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use bevy_ecs::prelude::*;
+use grainflow_components::{
+    GearState, Materials, Particles, PerParticle, RunHealth, SimClock, VerletList,
+};
+use grainflow_systems::schedule::Slot;
+use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
+
+use crate::output::{write_particles, ParticleOutput};
+use crate::scene::{Scene, SceneError};
+use crate::stability::{self, StepEstimate};
+
+/// Writers registered by the application into the `Output` set.
+const OUTPUT_ENTRIES: &[SystemEntry] = &[SystemEntry {
+    name: "write_particles",
+    set: StepSet::Output,
+    phase: Phase::Step,
+    wanted: |w| w.contains_resource::<ParticleOutput>(),
+    add: |s, slot: Slot| {
+        s.add_systems(write_particles.in_set(slot));
+    },
+}];
+
+pub struct Simulation {
+    pub scene: Scene,
+    pub world: World,
+    pub step_schedule: Schedule,
+    pub startup_schedule: Schedule,
+    pub step_systems: Vec<(StepSet, &'static str)>,
+    pub estimate: Option<StepEstimate>,
+    started: bool,
+}
+
+/// How a run ended.
+#[derive(Debug, Clone)]
+pub struct RunReport {
+    pub steps: u64,
+    pub wall_seconds: f64,
+    pub particle_steps: f64,
+    pub failure: Option<String>,
+}
+
+impl Simulation {
+    /// Build the world and schedules of `scene`; with `output` the particle writer joins
+    /// the `Output` set.
+    pub fn new(
+        scene: Scene,
+        path: &Path,
+        output: Option<(&Path, f64)>,
+    ) -> Result<Self, SceneError> {
+        let mut world = crate::build::world_from_scene(&scene, path)?;
+        let estimate = {
+            let particles = world.resource::<Particles>();
+            stability::estimate(&scene, particles, &world.resource::<Materials>().list)
+        };
+        if let Some(est) = &estimate {
+            if scene.simulation.dt > est.limit && !scene.simulation.allow_unstable_dt {
+                return Err(SceneError {
+                    file: path.to_path_buf(),
+                    field: "simulation.dt".into(),
+                    message: format!(
+                        "dt = {:.3e} s exceeds the stable estimate {:.3e} s (min of 0.4 x Rayleigh {:.3e} s and Hertz contact time / 10 = {:.3e} s at {:.3} m/s); \
+                         expected dt <= {:.3e}, or set simulation.allow_unstable_dt = true",
+                        scene.simulation.dt, est.limit, est.rayleigh, est.contact_time / 10.0, est.impact_speed, est.limit
+                    ),
+                });
+            }
+        }
+        if let Some((dir, interval)) = output {
+            let out = ParticleOutput::create(dir, interval).map_err(|m| SceneError {
+                file: path.to_path_buf(),
+                field: "--out".into(),
+                message: m,
+            })?;
+            world.insert_resource(out);
+        }
+        let (step_schedule, step_systems) = build_schedule(&world, Phase::Step, OUTPUT_ENTRIES);
+        let (startup_schedule, _) = build_schedule(&world, Phase::Startup, &[]);
+        Ok(Self {
+            scene,
+            world,
+            step_schedule,
+            startup_schedule,
+            step_systems,
+            estimate,
+            started: false,
+        })
+    }
+
+    /// Forces at t = 0 and integrator start values; writes the first frame.
+    pub fn start(&mut self) {
+        if self.started {
+            return;
+        }
+        self.startup_schedule.run(&mut self.world);
+        self.started = true;
+        let clock = *self.world.resource::<SimClock>();
+        if let Some(mut out) = self.world.remove_resource::<ParticleOutput>() {
+            out.next_time = out.interval;
+            if let Err(e) = out.write_frame(self.world.resource::<Particles>(), &clock) {
+                out.error = Some(e);
+            }
+            self.world.insert_resource(out);
+        }
+    }
+
+    /// One DEM step.
+    pub fn step(&mut self) {
+        self.start();
+        self.step_schedule.run(&mut self.world);
+    }
+
+    pub fn failure(&self) -> Option<String> {
+        let health = self.world.resource::<RunHealth>();
+        health.failure.clone().or_else(|| {
+            self.world
+                .get_resource::<ParticleOutput>()
+                .and_then(|o| o.error.clone())
+        })
+    }
+
+    /// Run `steps` steps (stopping early on failure), showing progress on a terminal
+    /// and plain log lines otherwise.
+    pub fn run(&mut self, steps: u64) -> RunReport {
+        let t0 = Instant::now();
+        self.start();
+        let start_step = self.world.resource::<SimClock>().step;
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = indicatif::ProgressBar::new(steps);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{bar:30} {pos}/{len} steps  {msg}  ETA {eta}",
+                )
+                .expect("valid template"),
+            );
+            bar
+        });
+        let mut last_log = Instant::now();
+        let mut particle_steps = 0.0;
+        let mut failure = None;
+        for k in 0..steps {
+            particle_steps += self.world.resource::<Particles>().len() as f64;
+            self.step();
+            if let Some(f) = self.failure() {
+                failure = Some(f);
+                break;
+            }
+            if last_log.elapsed().as_secs_f64() > 1.0 || k + 1 == steps {
+                let elapsed = t0.elapsed().as_secs_f64();
+                let rate = (k + 1) as f64 / elapsed;
+                let clock = self.world.resource::<SimClock>();
+                let msg = format!(
+                    "t = {:.4} s  {:.0} steps/s  {:.3e} particle-steps/s  {} particles",
+                    clock.time,
+                    rate,
+                    particle_steps / elapsed,
+                    self.world.resource::<Particles>().len()
+                );
+                if let Some(bar) = &bar {
+                    bar.set_position(k + 1);
+                    bar.set_message(msg);
+                } else if last_log.elapsed().as_secs_f64() > 10.0 || k + 1 == steps {
+                    let eta = (steps - k - 1) as f64 / rate;
+                    tracing::info!("step {}/{steps} {msg} ETA {eta:.0} s", k + 1);
+                } else {
+                    continue;
+                }
+                last_log = Instant::now();
+            }
+        }
+        if let Some(bar) = bar {
+            bar.finish();
+        }
+        // Last state (unless unhealthy: output stops at the last good frame).
+        if failure.is_none() {
+            let clock = *self.world.resource::<SimClock>();
+            if let Some(mut out) = self.world.remove_resource::<ParticleOutput>() {
+                if let Err(e) = out.write_frame(self.world.resource::<Particles>(), &clock) {
+                    failure = Some(e);
+                }
+                self.world.insert_resource(out);
+            }
+        }
+        RunReport {
+            steps: self.world.resource::<SimClock>().step - start_step,
+            wall_seconds: t0.elapsed().as_secs_f64(),
+            particle_steps,
+            failure,
+        }
+    }
+
+    /// Memory held per particle by the per-particle blocks and the neighbour list, bytes.
+    pub fn bytes_per_particle(&self) -> f64 {
+        let p = self.world.resource::<Particles>();
+        let n = p.len().max(1) as f64;
+        let mut rows = p.bytes_per_row() as f64;
+        if let Some(g) = self.world.get_resource::<GearState>() {
+            rows += g.bytes_per_row() as f64;
+        }
+        let list = self.world.resource::<VerletList>();
+        let list_bytes = (list.neighbours.capacity() * 4 + list.start.capacity() * 4) as f64
+            + list
+                .reference
+                .iter()
+                .map(|c| c.capacity() * 8)
+                .sum::<usize>() as f64;
+        rows + list_bytes / n
+    }
+
+    /// The run report as JSON (`summary.json`).
+    pub fn summary(&self, report: &RunReport, threads: usize) -> serde_json::Value {
+        let clock = self.world.resource::<SimClock>();
+        let health = self.world.resource::<RunHealth>();
+        let list = self.world.resource::<VerletList>();
+        let n = self.world.resource::<Particles>().len();
+        let rate = report.particle_steps / report.wall_seconds.max(1e-12);
+        let peak = peak_memory_bytes();
+        serde_json::json!({
+            "status": if report.failure.is_some() { "failed" } else { "completed" },
+            "failure": report.failure,
+            "steps": report.steps,
+            "total_steps": clock.step,
+            "simulated_time": clock.time,
+            "dt": clock.dt,
+            "wall_seconds": report.wall_seconds,
+            "particles": n,
+            "particle_steps_per_s": rate,
+            "particle_steps_per_s_per_core": rate / threads as f64,
+            "threads": threads,
+            "peak_memory_bytes": peak,
+            "peak_memory_per_particle_bytes": peak.map(|p| p as f64 / n.max(1) as f64),
+            "state_bytes_per_particle": self.bytes_per_particle(),
+            "kinetic_energy": health.kinetic_energy,
+            "max_overlap_ratio": health.run_max_overlap_ratio,
+            "neighbour_list_builds": list.builds,
+            "neighbours_per_particle": list.neighbours.len() as f64 / n.max(1) as f64,
+            "integrator": format!("{:?}", self.scene.simulation.integrator),
+            "schedule": self.step_systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
+            "observables": {},
+        })
+    }
+}
+
+/// Peak resident memory of this process (VmHWM), bytes.
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// The default output directory of a scene: `out/<scene file stem>`.
+pub fn default_out_dir(scene_path: &Path) -> PathBuf {
+    PathBuf::from("out").join(scene_path.file_stem().unwrap_or_default())
+}

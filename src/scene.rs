@@ -1,0 +1,633 @@
+//! Scene files: TOML, every field documented in `docs/scene-format.md`.
+//!
+//! Loading is strict: unknown fields, wrong types and out-of-range values are errors that
+//! name the file, the field and what was expected ([`SceneError`], exit code 2).
+//! `--set KEY=VALUE` overrides are applied to the parsed TOML before it is read, so they
+//! are checked exactly like the file.
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+/// A bad scene: which file, which field, what was expected.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError {
+    pub file: PathBuf,
+    pub field: String,
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.field.is_empty() {
+            write!(f, "{}: {}", self.file.display(), self.message)
+        } else {
+            write!(
+                f,
+                "{}: field `{}`: {}",
+                self.file.display(),
+                self.field,
+                self.message
+            )
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    pub simulation: Simulation,
+    #[serde(default)]
+    pub fluid: Option<Fluid>,
+    #[serde(default)]
+    pub neighbour: Neighbour,
+    pub materials: Vec<MaterialSpec>,
+    #[serde(default)]
+    pub walls: Vec<WallSpec>,
+    #[serde(default)]
+    pub spheres: Vec<SphereSpec>,
+    #[serde(default)]
+    pub blocks: Vec<BlockSpec>,
+    #[serde(default)]
+    pub lammps: Vec<LammpsSpec>,
+    #[serde(default)]
+    pub inflows: Vec<InflowSpec>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IntegratorName {
+    Gear,
+    VelocityVerlet,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Simulation {
+    /// DEM time step, s.
+    pub dt: f64,
+    /// Simulated end time, s.
+    pub end_time: f64,
+    #[serde(default = "default_integrator")]
+    pub integrator: IntegratorName,
+    /// Gravitational acceleration, m/s^2.
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// Time between particle outputs, s (0: only the first and last state).
+    #[serde(default)]
+    pub output_interval: f64,
+    /// Run even when dt exceeds the stable estimate.
+    #[serde(default)]
+    pub allow_unstable_dt: bool,
+    /// Overlap (fraction of the smaller radius) at which a run is stopped as unstable.
+    #[serde(default = "default_overlap_limit")]
+    pub overlap_limit: f64,
+    /// Seed of the random placement (blocks, inflows).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+}
+
+fn default_integrator() -> IntegratorName {
+    IntegratorName::Gear
+}
+fn default_gravity() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+fn default_overlap_limit() -> f64 {
+    0.2
+}
+fn default_seed() -> u64 {
+    1
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fluid {
+    /// Fluid density rho_f, kg/m^3: buoyancy (rho - rho_f) V g.
+    pub density: f64,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Neighbour {
+    /// Verlet skin, m (default 0.1 x the largest diameter).
+    pub skin: Option<f64>,
+    /// Re-sort particles in cell order every this many list rebuilds (0: never).
+    pub sort_every: Option<u32>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub name: String,
+    pub density: f64,
+    pub youngs_modulus: f64,
+    #[serde(default)]
+    pub poisson_ratio: f64,
+    /// Constant normal damping d_n, N s/m (the seed's law).
+    pub normal_damping: Option<f64>,
+    /// Coefficient of restitution (alternative to `normal_damping`).
+    pub restitution: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum WallSpec {
+    Plane {
+        #[serde(default)]
+        name: Option<String>,
+        material: String,
+        point: [f64; 3],
+        normal: [f64; 3],
+        #[serde(default)]
+        remove_at: Option<f64>,
+    },
+    Box {
+        #[serde(default)]
+        name: Option<String>,
+        material: String,
+        min: [f64; 3],
+        max: [f64; 3],
+    },
+    Cylinder {
+        #[serde(default)]
+        name: Option<String>,
+        material: String,
+        axis: Axis,
+        /// Axis position in the two other coordinates (in x, y, z order).
+        center: [f64; 2],
+        radius: f64,
+        #[serde(default)]
+        bottom: Option<f64>,
+        #[serde(default)]
+        top: Option<f64>,
+    },
+    Cone {
+        #[serde(default)]
+        name: Option<String>,
+        material: String,
+        axis: Axis,
+        center: [f64; 2],
+        radius_bottom: f64,
+        radius_top: f64,
+        bottom: f64,
+        top: f64,
+    },
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSpec {
+    pub material: String,
+    pub radius: f64,
+    pub position: [f64; 3],
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    #[serde(default)]
+    pub angular_velocity: [f64; 3],
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlockSpec {
+    pub material: String,
+    pub radius: f64,
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+    /// Lattice spacing, m (default 2.1 radius).
+    #[serde(default)]
+    pub spacing: Option<f64>,
+    /// Random displacement of each site, as a fraction of (spacing - 2 radius)/2.
+    #[serde(default)]
+    pub jitter: f64,
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Keep at most this many particles (sites in lattice order).
+    #[serde(default)]
+    pub count: Option<u64>,
+    /// Drop sites whose sphere would cut a wall (for blocks inside a hopper).
+    #[serde(default)]
+    pub inside_walls: bool,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LammpsSpec {
+    /// LAMMPS `atom_style sphere` data file (relative to the scene file).
+    pub file: PathBuf,
+    pub material: String,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RegionSpec {
+    Box {
+        min: [f64; 3],
+        max: [f64; 3],
+    },
+    Cylinder {
+        center: [f64; 2],
+        radius: f64,
+        bottom: f64,
+        top: f64,
+    },
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InflowSpec {
+    pub material: String,
+    /// Particles per second.
+    pub rate: f64,
+    /// Total number of particles to insert.
+    pub total: u64,
+    #[serde(default)]
+    pub start: f64,
+    #[serde(default)]
+    pub stop: Option<f64>,
+    /// Time between insertion batches, s (default 0.01).
+    #[serde(default)]
+    pub interval: Option<f64>,
+    pub region: RegionSpec,
+    /// Radii table and their number fractions (summing to 1).
+    pub radii: Vec<f64>,
+    pub fractions: Vec<f64>,
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    #[serde(default)]
+    pub velocity_jitter: f64,
+}
+
+/// Read a scene file and apply `overrides` (`KEY=VALUE`, dotted keys, numeric parts index
+/// arrays: `walls.0.remove_at=1.5`).
+pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        field: String::new(),
+        message: format!("cannot read the scene file: {e}"),
+    })?;
+    parse(&text, path, overrides)
+}
+
+/// Read a scene from `text`; `path` names it in errors and anchors relative file names.
+pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+    let err = |field: &str, message: String| SceneError {
+        file: path.to_path_buf(),
+        field: field.into(),
+        message,
+    };
+    let mut table: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| err("", format!("not valid TOML: {e}")))?;
+    for item in overrides {
+        apply_override(&mut table, item)
+            .map_err(|(field, m)| err(&field, format!("in --set {item}: {m}")))?;
+    }
+    let scene: Scene =
+        serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+            let field = e.path().to_string();
+            err(
+                if field == "." { "" } else { &field },
+                e.into_inner().to_string().trim().to_string(),
+            )
+        })?;
+    let mut scene = scene;
+    let base = path.parent().unwrap_or(Path::new("."));
+    for l in scene.lammps.iter_mut() {
+        if l.file.is_relative() {
+            l.file = base.join(&l.file);
+        }
+    }
+    validate(&scene).map_err(|(field, m)| err(&field, m))?;
+    Ok(scene)
+}
+
+fn apply_override(table: &mut toml::Table, item: &str) -> Result<(), (String, String)> {
+    let (key, raw) = item
+        .split_once('=')
+        .ok_or_else(|| (String::new(), "expected KEY=VALUE".to_string()))?;
+    let value: toml::Value = match format!("v = {raw}").parse::<toml::Table>() {
+        Ok(mut t) => t.remove("v").expect("parsed key"),
+        Err(_) => toml::Value::String(raw.to_string()),
+    };
+    let parts: Vec<&str> = key.split('.').collect();
+    let mut node = &mut *table;
+    let mut path = String::new();
+    for (k, part) in parts.iter().enumerate() {
+        let last = k + 1 == parts.len();
+        if !path.is_empty() {
+            path.push('.');
+        }
+        path.push_str(part);
+        // An array element: `walls.0.x`.
+        if let Ok(index) = parts
+            .get(k + 1)
+            .map_or(Err(()), |p| p.parse::<usize>().map_err(|_| ()))
+        {
+            let arr = node
+                .get_mut(*part)
+                .and_then(|v| v.as_array_mut())
+                .ok_or_else(|| (path.clone(), "is not an array in the scene".to_string()))?;
+            let len = arr.len();
+            let elem = arr.get_mut(index).ok_or_else(|| {
+                (
+                    format!("{path}.{index}"),
+                    format!("index out of range ({len} entries)"),
+                )
+            })?;
+            if k + 2 == parts.len() {
+                *elem = value;
+                return Ok(());
+            }
+            let rest = parts[k + 2..].join(".");
+            let sub = elem
+                .as_table_mut()
+                .ok_or_else(|| (format!("{path}.{index}"), "is not a table".to_string()))?;
+            return apply_override(sub, &format!("{rest}={raw}"))
+                .map_err(|(f, m)| (format!("{path}.{index}.{f}"), m));
+        }
+        if last {
+            node.insert(part.to_string(), value);
+            return Ok(());
+        }
+        node = node
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            .as_table_mut()
+            .ok_or_else(|| (path.clone(), "is not a table".to_string()))?;
+    }
+    Ok(())
+}
+
+type Invalid = (String, String);
+
+fn positive(field: String, v: f64) -> Result<(), Invalid> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err((field, format!("expected a finite number > 0, got {v}")))
+    }
+}
+
+fn finite3(field: String, v: [f64; 3]) -> Result<(), Invalid> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err((field, format!("expected three finite numbers, got {v:?}")))
+    }
+}
+
+fn known_material(scene: &Scene, field: String, name: &str) -> Result<(), Invalid> {
+    if scene.materials.iter().any(|m| m.name == name) {
+        Ok(())
+    } else {
+        let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+        Err((
+            field,
+            format!("unknown material `{name}`; the scene defines {names:?}"),
+        ))
+    }
+}
+
+/// Range and consistency checks that the types cannot express.
+fn validate(s: &Scene) -> Result<(), Invalid> {
+    let sim = &s.simulation;
+    positive("simulation.dt".into(), sim.dt)?;
+    positive("simulation.end_time".into(), sim.end_time)?;
+    finite3("simulation.gravity".into(), sim.gravity)?;
+    if !(sim.output_interval.is_finite() && sim.output_interval >= 0.0) {
+        return Err((
+            "simulation.output_interval".into(),
+            format!("expected a number >= 0, got {}", sim.output_interval),
+        ));
+    }
+    positive("simulation.overlap_limit".into(), sim.overlap_limit)?;
+    if let Some(f) = &s.fluid {
+        if !(f.density.is_finite() && f.density >= 0.0) {
+            return Err((
+                "fluid.density".into(),
+                format!("expected a number >= 0, got {}", f.density),
+            ));
+        }
+    }
+    if let Some(skin) = s.neighbour.skin {
+        positive("neighbour.skin".into(), skin)?;
+    }
+    if s.materials.is_empty() {
+        return Err((
+            "materials".into(),
+            "expected at least one [[materials]] entry".into(),
+        ));
+    }
+    for (k, m) in s.materials.iter().enumerate() {
+        let f = |name: &str| format!("materials[{k}].{name}");
+        positive(f("density"), m.density)?;
+        positive(f("youngs_modulus"), m.youngs_modulus)?;
+        if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
+            return Err((
+                f("poisson_ratio"),
+                format!("expected -1 < nu < 0.5, got {}", m.poisson_ratio),
+            ));
+        }
+        match (m.normal_damping, m.restitution) {
+            (Some(_), Some(_)) => {
+                return Err((
+                    f("restitution"),
+                    "give either normal_damping or restitution, not both".into(),
+                ))
+            }
+            (Some(d), None) if !(d.is_finite() && d >= 0.0) => {
+                return Err((
+                    f("normal_damping"),
+                    format!("expected a number >= 0 (N s/m), got {d}"),
+                ))
+            }
+            (None, Some(e)) if !(0.0..=1.0).contains(&e) => {
+                return Err((f("restitution"), format!("expected 0 <= e <= 1, got {e}")))
+            }
+            _ => {}
+        }
+        if s.materials[..k].iter().any(|o| o.name == m.name) {
+            return Err((f("name"), format!("material `{}` is defined twice", m.name)));
+        }
+    }
+    for (k, w) in s.walls.iter().enumerate() {
+        let f = |name: &str| format!("walls[{k}].{name}");
+        match w {
+            WallSpec::Plane {
+                material,
+                point,
+                normal,
+                remove_at,
+                ..
+            } => {
+                known_material(s, f("material"), material)?;
+                finite3(f("point"), *point)?;
+                finite3(f("normal"), *normal)?;
+                if normal.iter().map(|x| x * x).sum::<f64>() == 0.0 {
+                    return Err((f("normal"), "expected a non-zero vector".into()));
+                }
+                if let Some(t) = remove_at {
+                    if !(t.is_finite() && *t >= 0.0) {
+                        return Err((f("remove_at"), format!("expected a time >= 0, got {t}")));
+                    }
+                }
+            }
+            WallSpec::Box {
+                material, min, max, ..
+            } => {
+                known_material(s, f("material"), material)?;
+                finite3(f("min"), *min)?;
+                finite3(f("max"), *max)?;
+                if (0..3).any(|d| max[d] <= min[d]) {
+                    return Err((
+                        f("max"),
+                        format!(
+                            "expected max > min in every coordinate, got min {min:?} max {max:?}"
+                        ),
+                    ));
+                }
+            }
+            WallSpec::Cylinder {
+                material,
+                radius,
+                bottom,
+                top,
+                ..
+            } => {
+                known_material(s, f("material"), material)?;
+                positive(f("radius"), *radius)?;
+                if let (Some(b), Some(t)) = (bottom, top) {
+                    if t <= b {
+                        return Err((f("top"), format!("expected top > bottom, got {t} <= {b}")));
+                    }
+                }
+            }
+            WallSpec::Cone {
+                material,
+                radius_bottom,
+                radius_top,
+                bottom,
+                top,
+                ..
+            } => {
+                known_material(s, f("material"), material)?;
+                if !(*radius_bottom >= 0.0
+                    && *radius_top >= 0.0
+                    && radius_bottom.max(*radius_top) > 0.0)
+                {
+                    return Err((
+                        f("radius_bottom"),
+                        "expected radii >= 0, not both zero".into(),
+                    ));
+                }
+                if top <= bottom {
+                    return Err((
+                        f("top"),
+                        format!("expected top > bottom, got {top} <= {bottom}"),
+                    ));
+                }
+            }
+        }
+    }
+    for (k, p) in s.spheres.iter().enumerate() {
+        let f = |name: &str| format!("spheres[{k}].{name}");
+        known_material(s, f("material"), &p.material)?;
+        positive(f("radius"), p.radius)?;
+        finite3(f("position"), p.position)?;
+        finite3(f("velocity"), p.velocity)?;
+        finite3(f("angular_velocity"), p.angular_velocity)?;
+    }
+    for (k, b) in s.blocks.iter().enumerate() {
+        let f = |name: &str| format!("blocks[{k}].{name}");
+        known_material(s, f("material"), &b.material)?;
+        positive(f("radius"), b.radius)?;
+        finite3(f("min"), b.min)?;
+        finite3(f("max"), b.max)?;
+        if (0..3).any(|d| b.max[d] < b.min[d]) {
+            return Err((f("max"), "expected max >= min in every coordinate".into()));
+        }
+        if let Some(a) = b.spacing {
+            if !(a >= 2.0 * b.radius) {
+                return Err((
+                    f("spacing"),
+                    format!(
+                        "expected a spacing >= 2 radius = {}, got {a}",
+                        2.0 * b.radius
+                    ),
+                ));
+            }
+        }
+        if !(0.0..=1.0).contains(&b.jitter) {
+            return Err((
+                f("jitter"),
+                format!("expected 0 <= jitter <= 1, got {}", b.jitter),
+            ));
+        }
+    }
+    for (k, l) in s.lammps.iter().enumerate() {
+        known_material(s, format!("lammps[{k}].material"), &l.material)?;
+    }
+    for (k, i) in s.inflows.iter().enumerate() {
+        let f = |name: &str| format!("inflows[{k}].{name}");
+        known_material(s, f("material"), &i.material)?;
+        positive(f("rate"), i.rate)?;
+        if let Some(v) = i.interval {
+            positive(f("interval"), v)?;
+        }
+        if i.radii.is_empty() || i.radii.len() != i.fractions.len() {
+            return Err((
+                f("fractions"),
+                "expected one fraction per radius, and at least one radius".into(),
+            ));
+        }
+        for (n, r) in i.radii.iter().enumerate() {
+            positive(format!("inflows[{k}].radii[{n}]"), *r)?;
+        }
+        let sum: f64 = i.fractions.iter().sum();
+        if i.fractions.iter().any(|x| *x < 0.0) || (sum - 1.0).abs() > 1e-9 {
+            return Err((
+                f("fractions"),
+                format!("expected fractions >= 0 summing to 1, got sum {sum}"),
+            ));
+        }
+        match &i.region {
+            RegionSpec::Box { min, max } => {
+                if (0..3).any(|d| max[d] <= min[d]) {
+                    return Err((
+                        f("region.max"),
+                        "expected max > min in every coordinate".into(),
+                    ));
+                }
+            }
+            RegionSpec::Cylinder {
+                radius,
+                bottom,
+                top,
+                ..
+            } => {
+                positive(f("region.radius"), *radius)?;
+                if top <= bottom {
+                    return Err((f("region.top"), "expected top > bottom".into()));
+                }
+            }
+        }
+    }
+    Ok(())
+}

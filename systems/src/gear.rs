@@ -1,0 +1,112 @@
+//! Gear predictor-corrector with five values for the second-order equations of motion
+//! (Gear 1971; Allen & Tildesley 1987, Appendix E): position x, velocity v, acceleration
+//! a, and its derivatives b = da/dt, c = d2a/dt2.
+//!
+//! Predictor (Taylor series):  x += v dt + a dt^2/2 + b dt^3/6 + c dt^4/24,
+//!   v += a dt + b dt^2/2 + c dt^3/6,  a += b dt + c dt^2/2,  b += c dt.
+//! Corrector with Delta = a(F(x_p, v_p)) - a_p and the scaled coefficients
+//! (alpha_0, 3/4, 1, 1/2, 1/12):  x += alpha_0 dt^2/2 Delta,  v += 3/8 dt Delta,
+//!   a += Delta,  b += 3/2 Delta/dt,  c += Delta/dt^2.
+//! alpha_0 = 19/120, or 19/90 when the forces depend on the velocity (damping).
+use bevy_ecs::prelude::*;
+use grainflow_components::{BodyAcceleration, GearState, Particles, SimClock};
+use rayon::prelude::*;
+
+use crate::CHUNK;
+
+pub fn gear_predict(
+    mut particles: ResMut<Particles>,
+    mut gear: ResMut<GearState>,
+    clock: Res<SimClock>,
+) {
+    let _span = tracing::info_span!("gear_predict").entered();
+    let dt = clock.dt;
+    let (h2, h3, h4) = (dt * dt / 2.0, dt * dt * dt / 6.0, dt * dt * dt * dt / 24.0);
+    let GearState {
+        acc, jerk, snap, ..
+    } = &mut *gear;
+    let Particles {
+        position, velocity, ..
+    } = &mut *particles;
+    for d in 0..3 {
+        (
+            position[d].par_chunks_mut(CHUNK),
+            velocity[d].par_chunks_mut(CHUNK),
+            acc[d].par_chunks_mut(CHUNK),
+            jerk[d].par_chunks_mut(CHUNK),
+            snap[d].par_chunks(CHUNK),
+        )
+            .into_par_iter()
+            .for_each(|(x, v, a, b, c)| {
+                for k in 0..x.len() {
+                    x[k] += v[k] * dt + a[k] * h2 + b[k] * h3 + c[k] * h4;
+                    v[k] += a[k] * dt + b[k] * h2 + c[k] * h3;
+                    a[k] += b[k] * dt + c[k] * h2;
+                    b[k] += c[k] * dt;
+                }
+            });
+    }
+}
+
+pub fn gear_correct(
+    mut particles: ResMut<Particles>,
+    mut gear: ResMut<GearState>,
+    clock: Res<SimClock>,
+    body: Res<BodyAcceleration>,
+) {
+    let _span = tracing::info_span!("gear_correct").entered();
+    let dt = clock.dt;
+    let cx = gear.alpha0 * dt * dt / 2.0;
+    let (cv, cb, cc) = (3.0 / 8.0 * dt, 1.5 / dt, 1.0 / (dt * dt));
+    let GearState {
+        acc, jerk, snap, ..
+    } = &mut *gear;
+    let Particles {
+        position,
+        velocity,
+        force,
+        inv_mass,
+        material,
+        ..
+    } = &mut *particles;
+    for d in 0..3 {
+        let g: Vec<f64> = body.per_material.iter().map(|g| g[d]).collect();
+        (
+            position[d].par_chunks_mut(CHUNK),
+            velocity[d].par_chunks_mut(CHUNK),
+            acc[d].par_chunks_mut(CHUNK),
+            jerk[d].par_chunks_mut(CHUNK),
+            snap[d].par_chunks_mut(CHUNK),
+            force[d].par_chunks(CHUNK),
+            inv_mass.par_chunks(CHUNK),
+            material.par_chunks(CHUNK),
+        )
+            .into_par_iter()
+            .for_each(|(x, v, a, b, c, f, im, m)| {
+                for k in 0..x.len() {
+                    let delta = f[k] * im[k] + g[m[k] as usize] - a[k];
+                    x[k] += cx * delta;
+                    v[k] += cv * delta;
+                    a[k] += delta;
+                    b[k] += cb * delta;
+                    c[k] += cc * delta;
+                }
+            });
+    }
+}
+
+/// Start-up: the acceleration from the forces at t = 0, higher derivatives zero.
+pub fn gear_start(
+    particles: Res<Particles>,
+    mut gear: ResMut<GearState>,
+    body: Res<BodyAcceleration>,
+) {
+    for d in 0..3 {
+        for i in 0..particles.len() {
+            gear.acc[d][i] = particles.force[d][i] * particles.inv_mass[i]
+                + body.per_material[particles.material[i] as usize][d];
+            gear.jerk[d][i] = 0.0;
+            gear.snap[d][i] = 0.0;
+        }
+    }
+}

@@ -1,0 +1,63 @@
+//! Stability monitor: stops a run whose state is no longer physical (non-finite values or
+//! an overlap beyond the limit), naming the step and the particle; and the clock.
+use bevy_ecs::prelude::*;
+use grainflow_components::{Particles, RunHealth, SimClock};
+use rayon::prelude::*;
+
+use crate::CHUNK;
+
+/// Advance the simulated time by one step (last system of the corrector set).
+pub fn advance_clock(mut clock: ResMut<SimClock>) {
+    clock.step += 1;
+    clock.time = clock.step as f64 * clock.dt;
+}
+
+/// Kinetic energy, the first non-finite particle row, and the failure verdict.
+pub fn stability_monitor(
+    particles: Res<Particles>,
+    clock: Res<SimClock>,
+    mut health: ResMut<RunHealth>,
+) {
+    let _span = tracing::info_span!("stability_monitor").entered();
+    let [x, y, z] = &particles.position;
+    let [vx, vy, vz] = &particles.velocity;
+    let im = &particles.inv_mass;
+    let n = particles.len();
+    // Per-chunk sums added in chunk order: the same value for any thread count.
+    let parts: Vec<(f64, Option<usize>)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut ke = 0.0;
+            let mut bad = None;
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let v2 = vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i];
+                ke += 0.5 * v2 / im[i];
+                if bad.is_none() && !(v2 + x[i] + y[i] + z[i]).is_finite() {
+                    bad = Some(i);
+                }
+            }
+            (ke, bad)
+        })
+        .collect();
+    health.kinetic_energy = parts.iter().map(|p| p.0).sum();
+    health.non_finite_particle = parts.iter().find_map(|p| p.1).map(|i| particles.id[i]);
+    if health.failure.is_some() {
+        return;
+    }
+    if let Some(id) = health.non_finite_particle {
+        health.failure = Some(format!(
+            "unstable at step {} (t = {:.6e} s): particle {id} has a non-finite position or velocity",
+            clock.step, clock.time
+        ));
+    } else if health.max_overlap_ratio > health.overlap_limit {
+        health.failure = Some(format!(
+            "unstable at step {} (t = {:.6e} s): particle {} overlaps by {:.1} % of its radius (limit {:.0} %); \
+             the time step is too large for the contact stiffness, or particles were placed overlapping",
+            clock.step,
+            clock.time,
+            health.max_overlap_particle,
+            100.0 * health.max_overlap_ratio,
+            100.0 * health.overlap_limit
+        ));
+    }
+}

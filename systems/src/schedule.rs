@@ -1,0 +1,253 @@
+//! The time step of grainflow, in order, and the table of its systems.
+//!
+//! One DEM step runs the sets below in this order (the seed's "efficient computation"
+//! slide: neighbour list, contact, hydrodynamics, Gear predictor-corrector):
+//!
+//! 1. `Events`        walls removed at their time, particles inserted by inflows
+//! 2. `SyncRows`      per-particle blocks grown to the particle count
+//! 3. `Predict`       integrator predictor (Gear: Taylor step of all derivatives)
+//! 4. `NeighbourList` cell index + Verlet list, rebuilt when a particle moved skin/2;
+//!                    particles re-sorted in cell order
+//! 5. `Reorder`       every other per-particle block follows the re-sort
+//! 6. `Contact`       contact forces (Hertz normal + damping, walls)
+//! 7. `HydrodynamicSampling`, `VelocityBlending`, `MultigridFluid`: the fluid coupling
+//!                    (reserved; no system yet)
+//! 8. `Correct`       integrator corrector with body forces (gravity, buoyancy)
+//! 9. `Monitor`       stability checks (overlap, non-finite state), kinetic energy
+//! 10. `Output`       writers (added by the application)
+//!
+//! A scene gets only the systems whose `wanted` test passes on its world, so a scene
+//! without inflow, walls or Gear neither runs nor allocates their systems. Adding a model
+//! means one file with its systems and one line in [`REGISTRY`].
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::SingleThreadedExecutor;
+use grainflow_components::{GearState, IntegratorKind, Walls};
+
+use crate::{gear, hertz, inflow, monitor, neighbour_list, rows, verlet, walls};
+
+/// The ordered phases of a DEM step.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StepSet {
+    Events,
+    SyncRows,
+    Predict,
+    NeighbourList,
+    Reorder,
+    Contact,
+    HydrodynamicSampling,
+    VelocityBlending,
+    MultigridFluid,
+    Correct,
+    Monitor,
+    Output,
+}
+
+/// All sets in step order.
+pub const STEP_ORDER: [StepSet; 12] = [
+    StepSet::Events,
+    StepSet::SyncRows,
+    StepSet::Predict,
+    StepSet::NeighbourList,
+    StepSet::Reorder,
+    StepSet::Contact,
+    StepSet::HydrodynamicSampling,
+    StepSet::VelocityBlending,
+    StepSet::MultigridFluid,
+    StepSet::Correct,
+    StepSet::Monitor,
+    StepSet::Output,
+];
+
+/// The place of one registry entry inside its [`StepSet`]; slots of a set run in table
+/// order.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Slot(pub usize);
+
+/// Which schedule a system belongs to: the time step, the start-up (forces at t = 0 and
+/// integrator initialisation), or both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    Step,
+    Startup,
+    Both,
+}
+
+/// One registered system: its name (as printed by `grainflow check`), its set, the
+/// schedules it joins, when a world needs it, and how it is added.
+pub struct SystemEntry {
+    pub name: &'static str,
+    pub set: StepSet,
+    pub phase: Phase,
+    pub wanted: fn(&World) -> bool,
+    pub add: fn(&mut Schedule, Slot),
+}
+
+fn always(_: &World) -> bool {
+    true
+}
+fn uses_gear(w: &World) -> bool {
+    w.get_resource::<IntegratorKind>() == Some(&IntegratorKind::Gear)
+}
+fn uses_verlet(w: &World) -> bool {
+    w.get_resource::<IntegratorKind>() == Some(&IntegratorKind::VelocityVerlet)
+}
+fn has_removable_walls(w: &World) -> bool {
+    w.get_resource::<Walls>()
+        .is_some_and(|ws| ws.list.iter().any(|x| x.remove_at.is_some()))
+}
+
+/// The table of DEM systems, in step order within each set.
+pub const REGISTRY: &[SystemEntry] = &[
+    SystemEntry {
+        name: "wall_removal",
+        set: StepSet::Events,
+        phase: Phase::Step,
+        wanted: has_removable_walls,
+        add: |s, set| {
+            s.add_systems(walls::wall_removal.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "inflow_insertion",
+        set: StepSet::Events,
+        phase: Phase::Step,
+        wanted: inflow::has_inflow,
+        add: |s, set| {
+            s.add_systems(inflow::inflow_insertion.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "sync_rows<GearState>",
+        set: StepSet::SyncRows,
+        phase: Phase::Both,
+        wanted: uses_gear,
+        add: |s, set| {
+            s.add_systems(rows::sync_rows::<GearState>.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "gear_predict",
+        set: StepSet::Predict,
+        phase: Phase::Step,
+        wanted: uses_gear,
+        add: |s, set| {
+            s.add_systems(gear::gear_predict.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "verlet_predict",
+        set: StepSet::Predict,
+        phase: Phase::Step,
+        wanted: uses_verlet,
+        add: |s, set| {
+            s.add_systems(verlet::verlet_predict.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "verlet_list",
+        set: StepSet::NeighbourList,
+        phase: Phase::Both,
+        wanted: always,
+        add: |s, set| {
+            s.add_systems(neighbour_list::verlet_list.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "permute_rows<GearState>",
+        set: StepSet::Reorder,
+        phase: Phase::Both,
+        wanted: uses_gear,
+        add: |s, set| {
+            s.add_systems(rows::permute_rows::<GearState>.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "hertz_contact",
+        set: StepSet::Contact,
+        phase: Phase::Both,
+        wanted: always,
+        add: |s, set| {
+            s.add_systems(hertz::hertz_contact.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "gear_correct",
+        set: StepSet::Correct,
+        phase: Phase::Step,
+        wanted: uses_gear,
+        add: |s, set| {
+            s.add_systems(gear::gear_correct.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "gear_start",
+        set: StepSet::Correct,
+        phase: Phase::Startup,
+        wanted: uses_gear,
+        add: |s, set| {
+            s.add_systems(gear::gear_start.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "verlet_correct",
+        set: StepSet::Correct,
+        phase: Phase::Step,
+        wanted: uses_verlet,
+        add: |s, set| {
+            s.add_systems(verlet::verlet_correct.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "advance_clock",
+        set: StepSet::Correct,
+        phase: Phase::Step,
+        wanted: always,
+        add: |s, set| {
+            s.add_systems(monitor::advance_clock.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "stability_monitor",
+        set: StepSet::Monitor,
+        phase: Phase::Both,
+        wanted: always,
+        add: |s, set| {
+            s.add_systems(monitor::stability_monitor.in_set(set));
+        },
+    },
+];
+
+/// Build the step (or start-up) schedule for `world` from `REGISTRY` and the
+/// application's `extra` entries (writers). Returns the schedule and the names of the
+/// systems it runs, by set, for `grainflow check`.
+pub fn build_schedule(
+    world: &World,
+    phase: Phase,
+    extra: &[SystemEntry],
+) -> (Schedule, Vec<(StepSet, &'static str)>) {
+    let mut schedule = Schedule::default();
+    // Systems parallelise internally with rayon; bevy's own task pool stays unused.
+    schedule.set_executor(SingleThreadedExecutor::default());
+    for pair in STEP_ORDER.windows(2) {
+        schedule.configure_sets(pair[1].after(pair[0]));
+    }
+    let mut names = Vec::new();
+    let mut previous: Option<Slot> = None;
+    let entries = REGISTRY.iter().chain(extra);
+    for set in STEP_ORDER {
+        for (k, entry) in entries.clone().enumerate().filter(|(_, e)| e.set == set) {
+            let in_phase = entry.phase == Phase::Both || entry.phase == phase;
+            if in_phase && (entry.wanted)(world) {
+                let slot = Slot(k);
+                schedule.configure_sets(slot.in_set(set));
+                if let Some(prev) = previous {
+                    schedule.configure_sets(slot.after(prev));
+                }
+                (entry.add)(&mut schedule, slot);
+                names.push((set, entry.name));
+                previous = Some(slot);
+            }
+        }
+    }
+    (schedule, names)
+}
