@@ -261,6 +261,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
     });
     if !walls.list.is_empty() {
         world.insert_resource(walls);
+        world.insert_resource(WallList::default());
     }
     let damped = scene.materials.iter().any(|m| {
         m.restitution.is_some_and(|e| e < 1.0) || m.normal_damping.is_some_and(|d| d > 0.0)

@@ -35,3 +35,14 @@ pub struct VerletList {
 pub struct Reorder {
     pub perm: Option<Vec<u32>>,
 }
+
+/// Candidate wall contacts in compressed rows, rebuilt with the Verlet list: the walls
+/// within `r_i + skin` of particle `i` are `walls[start[i]..start[i+1]]` (indices into
+/// `Walls::list`). Walls are static, so the Verlet criterion covers them too.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct WallList {
+    pub start: Vec<u32>,
+    pub walls: Vec<u16>,
+    /// `VerletList::builds` when this list was built.
+    pub built_for: u64,
+}

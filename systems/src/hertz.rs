@@ -1,7 +1,7 @@
 //! Hertz normal contact with damping (Hertz 1896), between particles and with walls.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Materials, PairParams, Particles, RunHealth, VerletList, WallShape, Walls,
+    Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
 };
 use rayon::prelude::*;
 
@@ -35,26 +35,63 @@ pub fn hertz_normal_force(
     elastic + damping
 }
 
+/// Pair parameter lookup; a scene with one material uses [`OneMaterial`], so the hot loop
+/// does no table gather.
+trait PairTable: Sync {
+    fn get(&self, a: u16, b: u16) -> &PairParams;
+}
+
+struct OneMaterial(PairParams);
+
+impl PairTable for OneMaterial {
+    #[inline(always)]
+    fn get(&self, _: u16, _: u16) -> &PairParams {
+        &self.0
+    }
+}
+
+impl PairTable for Materials {
+    #[inline(always)]
+    fn get(&self, a: u16, b: u16) -> &PairParams {
+        self.pair(a, b)
+    }
+}
+
 /// Contact forces of this step: every particle sums its pair forces over its row of the
 /// Verlet list (in list order, so the sum does not depend on threads), then its wall
-/// forces in wall order. Also finds the largest overlap ratio for the monitor.
+/// forces. Also finds the largest overlap ratio for the monitor.
 pub fn hertz_contact(
     mut particles: ResMut<Particles>,
     list: Res<VerletList>,
     materials: Res<Materials>,
     walls: Option<Res<Walls>>,
+    wall_list: Option<Res<WallList>>,
     mut health: ResMut<RunHealth>,
 ) {
     let _span = tracing::info_span!("hertz_contact").entered();
-    let active: Vec<(WallShape, u16)> = walls
-        .map(|w| {
-            w.list
-                .iter()
-                .filter(|w| w.active)
-                .map(|w| (w.shape.clone(), w.material))
-                .collect()
-        })
-        .unwrap_or_default();
+    let walls = walls.as_deref().zip(wall_list.as_deref());
+    let worst = if materials.list.len() == 1 {
+        contact_kernel(
+            &mut particles,
+            &list,
+            &OneMaterial(materials.pairs[0]),
+            walls,
+        )
+    } else {
+        contact_kernel(&mut particles, &list, &*materials, walls)
+    };
+    health.max_overlap_ratio = worst.0;
+    health.max_overlap_particle = worst.1;
+    health.run_max_overlap_ratio = health.run_max_overlap_ratio.max(worst.0);
+}
+
+/// Returns the largest overlap ratio and the id of its particle (smallest id on ties).
+fn contact_kernel<T: PairTable>(
+    particles: &mut Particles,
+    list: &VerletList,
+    table: &T,
+    walls: Option<(&Walls, &WallList)>,
+) -> (f64, u32) {
     let Particles {
         position,
         velocity,
@@ -64,14 +101,13 @@ pub fn hertz_contact(
         force,
         id,
         ..
-    } = &mut *particles;
+    } = particles;
     let [x, y, z] = &*position;
     let [vx, vy, vz] = &*velocity;
     let (r, inv_m, mat, id) = (&*radius, &*inv_mass, &*material, &*id);
     let (start, nbr) = (&list.start, &list.neighbours);
     let [fx, fy, fz] = force;
-    let mats = &*materials;
-    let worst = (
+    (
         fx.par_chunks_mut(CHUNK),
         fy.par_chunks_mut(CHUNK),
         fz.par_chunks_mut(CHUNK),
@@ -86,41 +122,55 @@ pub fn hertz_contact(
                 let (xi, yi, zi, ri) = (x[i], y[i], z[i], r[i]);
                 let (vxi, vyi, vzi, inv_mi, mi) = (vx[i], vy[i], vz[i], inv_m[i], mat[i]);
                 let (mut sx, mut sy, mut sz) = (0.0, 0.0, 0.0);
-                let mut ratio = 0.0f64;
+                // Largest overlap of this row; over both rows of a pair, max(delta/r_i,
+                // delta/r_j) = delta / min(r_i, r_j).
+                let mut deepest = 0.0f64;
                 for &j in &nbr[start[i] as usize..start[i + 1] as usize] {
                     let j = j as usize;
                     let (dx, dy, dz) = (xi - x[j], yi - y[j], zi - z[j]);
                     let d2 = dx * dx + dy * dy + dz * dz;
-                    let rs = ri + r[j];
+                    let rj = r[j];
+                    let rs = ri + rj;
                     if d2 >= rs * rs {
                         continue;
                     }
                     let d = d2.sqrt();
-                    let inv_d = 1.0 / d;
+                    // One division for both 1/d and 1/(r_i + r_j).
+                    let q = 1.0 / (d * rs);
+                    let inv_d = q * rs;
                     let (nx, ny, nz) = (dx * inv_d, dy * inv_d, dz * inv_d);
                     let delta = rs - d;
                     let delta_dot = -((vxi - vx[j]) * nx + (vyi - vy[j]) * ny + (vzi - vz[j]) * nz);
-                    let p = mats.pair(mi, mat[j]);
-                    let f =
-                        hertz_normal_force(p, ri * r[j] / rs, inv_mi + inv_m[j], delta, delta_dot);
+                    let p = table.get(mi, mat[j]);
+                    let f = hertz_normal_force(p, ri * rj * (q * d), inv_mi + inv_m[j], delta, delta_dot);
                     sx += f * nx;
                     sy += f * ny;
                     sz += f * nz;
-                    ratio = ratio.max(delta / ri.min(r[j]));
+                    deepest = deepest.max(delta);
                 }
-                for (shape, wm) in &active {
-                    let (dist, n) = wall_distance(shape, [xi, yi, zi]);
-                    if dist >= ri {
-                        continue;
+                if let Some((walls, wl)) = walls {
+                    for &w in &wl.walls[wl.start[i] as usize..wl.start[i + 1] as usize] {
+                        let wall = &walls.list[w as usize];
+                        let (dist, n) = wall_distance(&wall.shape, [xi, yi, zi]);
+                        if dist >= ri {
+                            continue;
+                        }
+                        let delta = ri - dist;
+                        let delta_dot = -(vxi * n[0] + vyi * n[1] + vzi * n[2]);
+                        let f = hertz_normal_force(
+                            table.get(wall.material, mi),
+                            ri,
+                            inv_mi,
+                            delta,
+                            delta_dot,
+                        );
+                        sx += f * n[0];
+                        sy += f * n[1];
+                        sz += f * n[2];
+                        deepest = deepest.max(delta);
                     }
-                    let delta = ri - dist;
-                    let delta_dot = -(vxi * n[0] + vyi * n[1] + vzi * n[2]);
-                    let f = hertz_normal_force(mats.pair(*wm, mi), ri, inv_mi, delta, delta_dot);
-                    sx += f * n[0];
-                    sy += f * n[1];
-                    sz += f * n[2];
-                    ratio = ratio.max(delta / ri);
                 }
+                let ratio = deepest / ri;
                 fx[k] = sx;
                 fy[k] = sy;
                 fz[k] = sz;
@@ -139,8 +189,5 @@ pub fn hertz_contact(
                     a
                 }
             },
-        );
-    health.max_overlap_ratio = worst.0;
-    health.max_overlap_particle = worst.1;
-    health.run_max_overlap_ratio = health.run_max_overlap_ratio.max(worst.0);
+        )
 }

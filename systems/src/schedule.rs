@@ -91,6 +91,9 @@ fn uses_gear(w: &World) -> bool {
 fn uses_verlet(w: &World) -> bool {
     w.get_resource::<IntegratorKind>() == Some(&IntegratorKind::VelocityVerlet)
 }
+fn has_walls(w: &World) -> bool {
+    w.contains_resource::<Walls>()
+}
 fn has_removable_walls(w: &World) -> bool {
     w.get_resource::<Walls>()
         .is_some_and(|ws| ws.list.iter().any(|x| x.remove_at.is_some()))
@@ -150,6 +153,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: always,
         add: |s, set| {
             s.add_systems(neighbour_list::verlet_list.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "wall_list",
+        set: StepSet::NeighbourList,
+        phase: Phase::Both,
+        wanted: has_walls,
+        add: |s, set| {
+            s.add_systems(walls::wall_list.in_set(set));
         },
     },
     SystemEntry {

@@ -1,7 +1,12 @@
 //! Wall geometry: distance and normal from a sphere centre to each wall shape, and the
 //! removal of walls at their time.
 use bevy_ecs::prelude::*;
-use grainflow_components::{SimClock, WallShape, Walls};
+use grainflow_components::{
+    NeighbourSettings, Particles, SimClock, VerletList, WallList, WallShape, Walls,
+};
+use rayon::prelude::*;
+
+use crate::CHUNK;
 
 /// Distance from point `p` to the wall surface and the unit normal pointing from the
 /// wall towards `p`. For a plane the distance is signed (negative behind the plane).
@@ -95,11 +100,70 @@ fn any_perpendicular(a: [f64; 3]) -> [f64; 3] {
 }
 
 /// Deactivate walls whose `remove_at` time has come (e.g. the hopper outlet plate).
-pub fn wall_removal(clock: Res<SimClock>, mut walls: ResMut<Walls>) {
+pub fn wall_removal(clock: Res<SimClock>, mut walls: ResMut<Walls>, mut list: ResMut<VerletList>) {
     for wall in walls.list.iter_mut() {
         if wall.active && wall.remove_at.is_some_and(|t| clock.time >= t) {
             wall.active = false;
+            list.stale = true;
             tracing::info!(wall = %wall.name, time = clock.time, "wall removed");
         }
     }
+}
+
+/// Rebuild the candidate wall contacts whenever the Verlet list was rebuilt.
+pub fn wall_list(
+    particles: Res<Particles>,
+    list: Res<VerletList>,
+    settings: Res<NeighbourSettings>,
+    walls: Res<Walls>,
+    mut wall_list: ResMut<WallList>,
+) {
+    if wall_list.built_for == list.builds && wall_list.start.len() == particles.len() + 1 {
+        return;
+    }
+    let _span = tracing::info_span!("wall_list").entered();
+    let [x, y, z] = &particles.position;
+    let r = &particles.radius;
+    let n = particles.len();
+    let active: Vec<(u16, &WallShape)> = walls
+        .list
+        .iter()
+        .enumerate()
+        .filter(|(_, w)| w.active)
+        .map(|(k, w)| (k as u16, &w.shape))
+        .collect();
+    let rows: Vec<(Vec<u16>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut ids = Vec::new();
+            let mut counts = Vec::new();
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let before = ids.len();
+                for (k, shape) in &active {
+                    if wall_distance(shape, [x[i], y[i], z[i]]).0 < r[i] + settings.skin {
+                        ids.push(*k);
+                    }
+                }
+                counts.push((ids.len() - before) as u32);
+            }
+            (ids, counts)
+        })
+        .collect();
+    let WallList {
+        start,
+        walls: ids,
+        built_for,
+    } = &mut *wall_list;
+    start.clear();
+    start.push(0);
+    ids.clear();
+    let mut total = 0;
+    for (chunk_ids, counts) in rows {
+        for c in counts {
+            total += c;
+            start.push(total);
+        }
+        ids.extend(chunk_ids);
+    }
+    *built_for = list.builds;
 }
