@@ -46,3 +46,15 @@ pub struct WallList {
     /// `VerletList::builds` when this list was built.
     pub built_for: u64,
 }
+
+/// The contact store: per-pair history (the tangential spring of a friction model, the
+/// contact state of an adhesion model) kept beside the Verlet list, `width` values per
+/// list entry: entry `k` of the list owns `values[k * width..(k + 1) * width]`. Pairs are
+/// keyed by the particles' stable ids, so at every rebuild and re-sort the history of a
+/// pair that is still listed moves to its new entry; a pair that left the list loses it.
+/// Present only when a model needs it.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct ContactHistory {
+    pub width: usize,
+    pub values: Vec<f64>,
+}

@@ -6,7 +6,7 @@
 //! the particles are re-sorted in cell order (counting sort on the cell index), so that
 //! neighbours are close in memory.
 use bevy_ecs::prelude::*;
-use grainflow_components::{NeighbourSettings, Particles, PerParticle, Reorder, VerletList};
+use grainflow_components::{ContactHistory, NeighbourSettings, Particles, PerParticle, Reorder, VerletList};
 use rayon::prelude::*;
 
 use crate::CHUNK;
@@ -17,6 +17,7 @@ pub fn verlet_list(
     mut list: ResMut<VerletList>,
     settings: Res<NeighbourSettings>,
     mut reorder: ResMut<Reorder>,
+    history: Option<ResMut<ContactHistory>>,
 ) {
     let _span = tracing::info_span!("verlet_list").entered();
     reorder.perm = None;
@@ -29,6 +30,12 @@ pub fn verlet_list(
         return;
     }
     let _span = tracing::info_span!("verlet_rebuild").entered();
+    // The old list, keyed by stable ids, for carrying the contact history over.
+    let old = history.as_ref().map(|_| OldList {
+        ids: particles.id.clone(),
+        start: std::mem::take(&mut list.start),
+        neighbours: std::mem::take(&mut list.neighbours),
+    });
     let sort = settings.sort_every > 0 && list.builds % settings.sort_every as u64 == 0;
     let grid = CellGrid::new(&particles, settings.skin);
     let mut cell_of = grid.cell_indices(&particles);
@@ -51,6 +58,9 @@ pub fn verlet_list(
         settings.skin,
         &mut list,
     );
+    if let (Some(mut history), Some(old)) = (history, old) {
+        carry_history(&mut history, &old, &particles.id, &list);
+    }
     for d in 0..3 {
         list.reference[d].clone_from(&particles.position[d]);
     }
@@ -259,4 +269,49 @@ fn build_full_list(
         }
         list.neighbours.extend_from_slice(nbrs);
     }
+}
+
+/// The list before a rebuild, with the ids of its rows.
+struct OldList {
+    ids: Vec<u32>,
+    start: Vec<u32>,
+    neighbours: Vec<u32>,
+}
+
+/// Move each pair's history from its old list entry to its new one (matched by the ids of
+/// both particles); new pairs start from zero.
+fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list: &VerletList) {
+    let w = history.width;
+    let n = ids.len();
+    let max_id = ids.iter().chain(&old.ids).copied().max().map_or(0, |m| m as usize + 1);
+    let mut old_row = vec![u32::MAX; max_id];
+    for (row, &id) in old.ids.iter().enumerate() {
+        old_row[id as usize] = row as u32;
+    }
+    let old_values = std::mem::take(&mut history.values);
+    let rows: Vec<Vec<f64>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let range = c * CHUNK..((c + 1) * CHUNK).min(n);
+            let entries = (list.start[range.start] as usize)..(list.start[range.end] as usize);
+            let mut out = vec![0.0; entries.len() * w];
+            for i in range {
+                let oi = old_row[ids[i] as usize];
+                if oi == u32::MAX || old.start.len() <= oi as usize + 1 {
+                    continue;
+                }
+                let old_row_entries = old.start[oi as usize] as usize..old.start[oi as usize + 1] as usize;
+                for k in list.start[i] as usize..list.start[i + 1] as usize {
+                    let oj = old_row[ids[list.neighbours[k] as usize] as usize];
+                    if let Some(pos) = old.neighbours[old_row_entries.clone()].iter().position(|&x| x == oj) {
+                        let src = (old_row_entries.start + pos) * w;
+                        let dst = (k - entries.start) * w;
+                        out[dst..dst + w].copy_from_slice(&old_values[src..src + w]);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    history.values = rows.concat();
 }

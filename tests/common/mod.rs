@@ -1,0 +1,224 @@
+//! Helpers shared by the integration tests: scenes from TOML text, particle state by
+//! stable id, the Hertz formulas of `shared/reference/contact-benchmarks.md` (Hertz 1896;
+//! Johnson, Contact Mechanics, 1985), an independent RK4 integration of the normal
+//! contact equation, and running the `grainflow` binary.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use grainflow::run::Simulation;
+use grainflow_components::{Particles, RunHealth};
+
+/// Build a simulation from scene text; `name` stands for the file name in errors.
+pub fn simulation(text: &str, name: &str) -> Simulation {
+    let path = Path::new(name);
+    let scene = grainflow::scene::parse(text, path, &[])
+        .unwrap_or_else(|e| panic!("test scene {name} does not parse: {e}"));
+    Simulation::new(scene, path, None)
+        .unwrap_or_else(|e| panic!("test scene {name} does not build: {e}"))
+}
+
+/// The row of the particle with stable id `id` (rows are re-sorted at list rebuilds).
+pub fn row(sim: &Simulation, id: u32) -> usize {
+    sim.world
+        .resource::<Particles>()
+        .id
+        .iter()
+        .position(|&k| k == id)
+        .unwrap_or_else(|| panic!("no particle with id {id}"))
+}
+
+pub fn position(sim: &Simulation, id: u32) -> [f64; 3] {
+    let i = row(sim, id);
+    let p = sim.world.resource::<Particles>();
+    [p.position[0][i], p.position[1][i], p.position[2][i]]
+}
+
+pub fn velocity(sim: &Simulation, id: u32) -> [f64; 3] {
+    let i = row(sim, id);
+    let p = sim.world.resource::<Particles>();
+    [p.velocity[0][i], p.velocity[1][i], p.velocity[2][i]]
+}
+
+/// Translational kinetic energy of all particles, computed here from the state.
+pub fn kinetic_energy(sim: &Simulation) -> f64 {
+    let p = sim.world.resource::<Particles>();
+    (0..p.len())
+        .map(|i| {
+            let v2: f64 = (0..3).map(|d| p.velocity[d][i].powi(2)).sum();
+            0.5 * p.mass(i) * v2
+        })
+        .sum()
+}
+
+pub fn health(sim: &Simulation) -> &RunHealth {
+    sim.world.resource::<RunHealth>()
+}
+
+pub fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// |a - b| / |b|.
+pub fn rel(a: f64, b: f64) -> f64 {
+    ((a - b) / b).abs()
+}
+
+pub fn sphere_mass(density: f64, radius: f64) -> f64 {
+    density * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3)
+}
+
+/// 1/E* = (1-nu1^2)/E1 + (1-nu2^2)/E2.
+pub fn e_star(e1: f64, nu1: f64, e2: f64, nu2: f64) -> f64 {
+    1.0 / ((1.0 - nu1 * nu1) / e1 + (1.0 - nu2 * nu2) / e2)
+}
+
+/// Effective quantities of one Hertz contact (reference file, "Hertz impact formulas").
+#[derive(Debug, Clone, Copy)]
+pub struct Hertz {
+    pub e_star: f64,
+    pub r_star: f64,
+    pub m_star: f64,
+}
+
+impl Hertz {
+    /// Two identical spheres of one material.
+    pub fn pair(e: f64, nu: f64, density: f64, radius: f64) -> Self {
+        Self {
+            e_star: e_star(e, nu, e, nu),
+            r_star: 0.5 * radius,
+            m_star: 0.5 * sphere_mass(density, radius),
+        }
+    }
+    /// A sphere against a rigid wall: R* = R, m* = m, the wall term of E* vanishes.
+    pub fn rigid_wall(e: f64, nu: f64, density: f64, radius: f64) -> Self {
+        Self {
+            e_star: e / (1.0 - nu * nu),
+            r_star: radius,
+            m_star: sphere_mass(density, radius),
+        }
+    }
+    /// c_n = (4/3) E* sqrt(R*), F = c_n delta^(3/2) (seed slide "Models for DEM").
+    pub fn c_n(&self) -> f64 {
+        4.0 / 3.0 * self.e_star * self.r_star.sqrt()
+    }
+    /// t_c = 2.868 (m*^2 / (R* E*^2 v))^(1/5), v the approach speed.
+    pub fn contact_time(&self, v: f64) -> f64 {
+        2.868 * (self.m_star.powi(2) / (self.r_star * self.e_star.powi(2) * v)).powf(0.2)
+    }
+    /// delta_max = (15 m* v^2 / (16 E* sqrt(R*)))^(2/5).
+    pub fn max_overlap(&self, v: f64) -> f64 {
+        (15.0 * self.m_star * v * v / (16.0 * self.e_star * self.r_star.sqrt())).powf(0.4)
+    }
+    pub fn max_force(&self, v: f64) -> f64 {
+        self.c_n() * self.max_overlap(v).powf(1.5)
+    }
+}
+
+/// Rayleigh time step dt_R = pi R sqrt(rho/G) / (0.1631 nu + 0.8766), G = E/(2(1+nu))
+/// (reference file; Li, Xu & Thornton 2005).
+pub fn rayleigh_time_step(radius: f64, e: f64, nu: f64, density: f64) -> f64 {
+    let g = e / (2.0 * (1.0 + nu));
+    std::f64::consts::PI * radius * (density / g).sqrt() / (0.1631 * nu + 0.8766)
+}
+
+/// Normal damping of the one-dimensional contact equation.
+#[derive(Debug, Clone, Copy)]
+pub enum Damping {
+    /// F_d = d_n delta_dot (seed slide "Models for DEM").
+    Constant(f64),
+    /// F_d = 2 sqrt(5/6) |beta| sqrt(S_n m*) delta_dot, S_n = 2 E* sqrt(R* delta),
+    /// beta = ln e / sqrt(ln^2 e + pi^2) (reference file, "Damping against restitution").
+    Restitution(f64),
+}
+
+/// m* delta'' = -c_n delta^(3/2) - F_d(delta, delta') from delta = 0, delta' = v, integrated
+/// with classical RK4 at step `h` until delta returns to 0 (end point by linear
+/// interpolation). Returns (restitution coefficient, contact duration). The force is not
+/// clipped at zero. Independent of grainflow's code: the reference for its contact models.
+pub fn rk4_normal_impact(h: &Hertz, damping: Damping, v: f64, steps_per_tc: f64) -> (f64, f64) {
+    let c_n = h.c_n();
+    let m = h.m_star;
+    let damping_force = |x: f64, xd: f64| -> f64 {
+        match damping {
+            Damping::Constant(d) => d * xd,
+            Damping::Restitution(e) => {
+                let l = e.ln();
+                let beta = l / (l * l + std::f64::consts::PI.powi(2)).sqrt();
+                let s_n = 2.0 * h.e_star * (h.r_star * x).sqrt();
+                -2.0 * (5.0f64 / 6.0).sqrt() * beta * (s_n * m).sqrt() * xd
+            }
+        }
+    };
+    let acc = |x: f64, xd: f64| -> f64 {
+        let x = x.max(0.0);
+        -(c_n * x.powf(1.5) + damping_force(x, xd)) / m
+    };
+    let dt = h.contact_time(v) / steps_per_tc;
+    let (mut x, mut xd, mut t) = (0.0f64, v, 0.0f64);
+    loop {
+        let (k1x, k1v) = (xd, acc(x, xd));
+        let (k2x, k2v) = (
+            xd + 0.5 * dt * k1v,
+            acc(x + 0.5 * dt * k1x, xd + 0.5 * dt * k1v),
+        );
+        let (k3x, k3v) = (
+            xd + 0.5 * dt * k2v,
+            acc(x + 0.5 * dt * k2x, xd + 0.5 * dt * k2v),
+        );
+        let (k4x, k4v) = (xd + dt * k3v, acc(x + dt * k3x, xd + dt * k3v));
+        let xn = x + dt / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        let xdn = xd + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        if xn <= 0.0 && t > 0.0 {
+            let s = x / (x - xn);
+            return (-(xd + s * (xdn - xd)) / v, t + s * dt);
+        }
+        x = xn;
+        xd = xdn;
+        t += dt;
+        assert!(t < 100.0 * h.contact_time(v), "RK4 contact never ended");
+    }
+}
+
+/// The `grainflow` binary built for these tests.
+pub fn grainflow() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_grainflow"))
+}
+
+/// Run the binary with `args`; returns (exit code, stdout, stderr).
+pub fn run_cli(args: &[&str]) -> (i32, String, String) {
+    let out: Output = grainflow()
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("cannot start the grainflow binary");
+    (
+        out.status.code().expect("grainflow was killed by a signal"),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Write `text` to `dir/name` and return the path.
+pub fn write_scene(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write the test scene");
+    path
+}
+
+/// A small deterministic generator (xorshift64*) for random test sets.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let r = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D);
+        (r >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next_f64()
+    }
+}
