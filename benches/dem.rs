@@ -1,1 +1,89 @@
-fn main() {}
+//! Criterion benchmarks of the DEM hot loops, per particle, on a dense packing of
+//! 50,000 spheres (simple-cubic lattice with 0.25 % overlap: six contacts per particle,
+//! about the five to six of a settled hopper bed), the hopper-fill material.
+//!
+//!   cargo bench --bench dem
+//!
+//! Figures are particles per second (criterion's "elements"); the whole-step throughput
+//! against LAMMPS is measured by `scripts/bench-vs-lammps.sh`.
+use std::path::Path;
+
+use bevy_ecs::system::RunSystemOnce;
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use grainflow::run::Simulation;
+use grainflow_components::{Particles, VerletList};
+use grainflow_systems::{gear, hertz, neighbour_list, verlet};
+
+fn dense_block(integrator: &str) -> Simulation {
+    let scene = format!(
+        r#"
+[simulation]
+dt = 1.0e-5
+end_time = 1.0
+integrator = "{integrator}"
+[neighbour]
+skin = 0.004
+[[materials]]
+name = "grain"
+density = 10.0
+youngs_modulus = 1.0e7
+normal_damping = 1.0e-5
+[[blocks]]
+material = "grain"
+radius = 0.02
+spacing = 0.0399
+min = [0.0, 0.0, 0.0]
+max = [1.46, 1.46, 1.46]
+count = 50000
+"#
+    );
+    let path = Path::new("bench-dense.toml");
+    let mut sim = Simulation::new(grainflow::scene::parse(&scene, path, &[]).unwrap(), path, None).unwrap();
+    sim.start();
+    sim
+}
+
+fn bench(c: &mut Criterion) {
+    for threads in [1, 2] {
+        // The work runs inside the pool; criterion's timer stays on this thread.
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let mut group = c.benchmark_group(format!("dem_{threads}_thread"));
+        group.sample_size(20);
+        let mut sim = pool.install(|| dense_block("gear"));
+        let n = sim.world.resource::<Particles>().len() as u64;
+        group.throughput(Throughput::Elements(n));
+        group.bench_function(BenchmarkId::new("neighbour_rebuild", n), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    sim.world.resource_mut::<VerletList>().stale = true;
+                    sim.world.run_system_once(neighbour_list::verlet_list).unwrap();
+                })
+            })
+        });
+        group.bench_function(BenchmarkId::new("contact_forces", n), |b| {
+            b.iter(|| pool.install(|| sim.world.run_system_once(hertz::hertz_contact).unwrap()))
+        });
+        group.bench_function(BenchmarkId::new("gear_predict_correct", n), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    sim.world.run_system_once(gear::gear_predict).unwrap();
+                    sim.world.run_system_once(gear::gear_correct).unwrap();
+                })
+            })
+        });
+        let mut sim = pool.install(|| dense_block("velocity_verlet"));
+        group.bench_function(BenchmarkId::new("verlet_predict_correct", n), |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    sim.world.run_system_once(verlet::verlet_predict).unwrap();
+                    sim.world.run_system_once(verlet::verlet_correct).unwrap();
+                })
+            })
+        });
+        group.bench_function(BenchmarkId::new("full_step_verlet", n), |b| b.iter(|| pool.install(|| sim.step())));
+        group.finish();
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
