@@ -1,0 +1,77 @@
+#!/usr/bin/env bash
+# Side-by-side throughput of grainflow and LAMMPS on the hopper benchmark states of
+# shared/bench/lammps-hopper (N = 50,000; dense and loose), same machine, same session.
+#
+#   bash scripts/bench-vs-lammps.sh            # LAMMPS np 1, grainflow gear + verlet, 1 and 2 threads, 3 reps
+#   REPS=1 LAMMPS=0 bash scripts/bench-vs-lammps.sh   # grainflow only (re-use the last LAMMPS results)
+#
+# Knobs: REPS [3], THREADS ["1 2"], INTEGRATORS ["gear velocity_verlet"], STATES
+# ["dense loose"], LAMMPS [1: run LAMMPS first], LAMMPS_NPS ["1"], SHARED [../shared],
+# WORK [/var/tmp/dem-peers] (data files, logs). Needs: apt-get install -y lammps openmpi-bin.
+# Prints a table of particle-steps/s (medians) and the ratios to LAMMPS on 1 rank.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+SHARED=${SHARED:-$ROOT/../shared}
+HARNESS=$SHARED/bench/lammps-hopper
+WORK=${WORK:-/var/tmp/dem-peers}
+REPS=${REPS:-3}
+THREADS=${THREADS:-"1 2"}
+INTEGRATORS=${INTEGRATORS:-"gear velocity_verlet"}
+STATES=${STATES:-"dense loose"}
+LAMMPS=${LAMMPS:-1}
+LAMMPS_NPS=${LAMMPS_NPS:-1}
+source "$HARNESS/common.sh"
+
+cd "$ROOT"
+cargo build --release --quiet
+BIN=$ROOT/target/release/grainflow
+
+if [[ $LAMMPS == 1 ]]; then
+  WORK=$WORK STATES=$STATES NPS=$LAMMPS_NPS REPS=$REPS bash "$HARNESS/run_lammps.sh" | tee "$WORK/logs/lammps_last.txt"
+else
+  # Only make sure the data files exist.
+  WORK=$WORK STATES=$STATES REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
+fi
+lammps_tsv=$(ls -t "$WORK"/logs/results_*.tsv 2>/dev/null | head -1 || true)
+
+results="$WORK/logs/grainflow_$(date +%Y%m%d_%H%M%S).tsv"
+printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\n" > "$results"
+for st in $STATES; do
+  for integ in $INTEGRATORS; do
+    for t in $THREADS; do
+      for rep in $(seq 1 "$REPS"); do
+        wait_idle
+        out="$WORK/grainflow_${st}_${integ}_t${t}"
+        "$BIN" run "$ROOT/cases/bench-hopper-$st.toml" --threads "$t" --out "$out" \
+          --set "simulation.integrator=\"$integ\"" --set "lammps.0.file=\"$WORK/${st}_50000.data\"" >/dev/null 2>&1
+        rate=$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['particle_steps_per_s'])" "$out/summary.json")
+        printf "%s\t%s\t%s\t%s\t%s\t%s\n" "$st" "$integ" "$t" "$rep" "$rate" "$BUSY" | tee -a "$results"
+      done
+    done
+  done
+done
+
+python3 - "$results" "$lammps_tsv" <<'PY'
+import csv, statistics, sys
+from collections import defaultdict
+g = defaultdict(list)
+for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
+    g[(r["state"], r["integrator"], int(r["threads"]))].append(float(r["particle_steps_per_s"]))
+lam = defaultdict(list)
+if len(sys.argv) > 2 and sys.argv[2]:
+    for r in csv.DictReader(open(sys.argv[2]), delimiter="\t"):
+        if r.get("loop_s"):
+            lam[(r["state"].split("-")[-1], int(r["np"]))].append(int(r["atoms"]) * int(r["steps"]) / float(r["loop_s"]))
+print(f"\n{'state':<7}{'code':<26}{'threads':>8}{'Mpstep/s':>10}{'per core':>10}{'x LAMMPS np1':>14}")
+for st in sorted({k[0] for k in g} | {k[0] for k in lam}):
+    base = statistics.median(lam[(st, 1)]) if lam.get((st, 1)) else None
+    for (s, np_), v in sorted(lam.items()):
+        if s == st:
+            m = statistics.median(v)
+            print(f"{st:<7}{'lammps':<26}{np_:>8}{m/1e6:>10.3f}{m/np_/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}")
+    for (s, integ, t), v in sorted(g.items()):
+        if s == st:
+            m = statistics.median(v)
+            print(f"{st:<7}{'grainflow ' + integ:<26}{t:>8}{m/1e6:>10.3f}{m/t/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}")
+print("\nMpstep/s: million particle-steps per second, median over the repetitions.")
+PY
