@@ -12,22 +12,14 @@ use bevy_ecs::prelude::*;
 use grainflow_components::{BodyAcceleration, GearState, Particles, SimClock};
 use rayon::prelude::*;
 
-use crate::CHUNK;
+use crate::{body_acceleration_column, BodyColumn, CHUNK};
 
-pub fn gear_predict(
-    mut particles: ResMut<Particles>,
-    mut gear: ResMut<GearState>,
-    clock: Res<SimClock>,
-) {
+pub fn gear_predict(mut particles: ResMut<Particles>, mut gear: ResMut<GearState>, clock: Res<SimClock>) {
     let _span = tracing::info_span!("gear_predict").entered();
     let dt = clock.dt;
     let (h2, h3, h4) = (dt * dt / 2.0, dt * dt * dt / 6.0, dt * dt * dt * dt / 24.0);
-    let GearState {
-        acc, jerk, snap, ..
-    } = &mut *gear;
-    let Particles {
-        position, velocity, ..
-    } = &mut *particles;
+    let GearState { acc, jerk, snap, .. } = &mut *gear;
+    let Particles { position, velocity, .. } = &mut *particles;
     for d in 0..3 {
         (
             position[d].par_chunks_mut(CHUNK),
@@ -38,7 +30,9 @@ pub fn gear_predict(
         )
             .into_par_iter()
             .for_each(|(x, v, a, b, c)| {
-                for k in 0..x.len() {
+                let n = x.len();
+                let (v, a, b, c) = (&mut v[..n], &mut a[..n], &mut b[..n], &c[..n]);
+                for k in 0..n {
                     x[k] += v[k] * dt + a[k] * h2 + b[k] * h3 + c[k] * h4;
                     v[k] += a[k] * dt + b[k] * h2 + c[k] * h3;
                     a[k] += b[k] * dt + c[k] * h2;
@@ -58,19 +52,10 @@ pub fn gear_correct(
     let dt = clock.dt;
     let cx = gear.alpha0 * dt * dt / 2.0;
     let (cv, cb, cc) = (3.0 / 8.0 * dt, 1.5 / dt, 1.0 / (dt * dt));
-    let GearState {
-        acc, jerk, snap, ..
-    } = &mut *gear;
-    let Particles {
-        position,
-        velocity,
-        force,
-        inv_mass,
-        material,
-        ..
-    } = &mut *particles;
+    let GearState { acc, jerk, snap, .. } = &mut *gear;
+    let Particles { position, velocity, force, inv_mass, material, .. } = &mut *particles;
     for d in 0..3 {
-        let g: Vec<f64> = body.per_material.iter().map(|g| g[d]).collect();
+        let g = body_acceleration_column(&body, d);
         (
             position[d].par_chunks_mut(CHUNK),
             velocity[d].par_chunks_mut(CHUNK),
@@ -83,24 +68,26 @@ pub fn gear_correct(
         )
             .into_par_iter()
             .for_each(|(x, v, a, b, c, f, im, m)| {
-                for k in 0..x.len() {
-                    let delta = f[k] * im[k] + g[m[k] as usize] - a[k];
+                let n = x.len();
+                let (v, a, b, c, f, im, m) = (&mut v[..n], &mut a[..n], &mut b[..n], &mut c[..n], &f[..n], &im[..n], &m[..n]);
+                let mut correct = |k: usize, g: f64| {
+                    let delta = f[k] * im[k] + g - a[k];
                     x[k] += cx * delta;
                     v[k] += cv * delta;
                     a[k] += delta;
                     b[k] += cb * delta;
                     c[k] += cc * delta;
+                };
+                match &g {
+                    BodyColumn::Uniform(g) => (0..n).for_each(|k| correct(k, *g)),
+                    BodyColumn::PerMaterial(g) => (0..n).for_each(|k| correct(k, g[m[k] as usize])),
                 }
             });
     }
 }
 
 /// Start-up: the acceleration from the forces at t = 0, higher derivatives zero.
-pub fn gear_start(
-    particles: Res<Particles>,
-    mut gear: ResMut<GearState>,
-    body: Res<BodyAcceleration>,
-) {
+pub fn gear_start(particles: Res<Particles>, mut gear: ResMut<GearState>, body: Res<BodyAcceleration>) {
     for d in 0..3 {
         for i in 0..particles.len() {
             gear.acc[d][i] = particles.force[d][i] * particles.inv_mass[i]

@@ -170,12 +170,14 @@ fn contact_kernel<T: PairTable>(
                         deepest = deepest.max(delta);
                     }
                 }
-                let ratio = deepest / ri;
                 fx[k] = sx;
                 fy[k] = sy;
                 fz[k] = sz;
-                if ratio > worst.0 || (ratio == worst.0 && ratio > 0.0 && id[i] < worst.1) {
-                    worst = (ratio, id[i]);
+                if deepest > 0.0 {
+                    let ratio = deepest / ri;
+                    if ratio > worst.0 || (ratio == worst.0 && id[i] < worst.1) {
+                        worst = (ratio, id[i]);
+                    }
                 }
             }
             worst

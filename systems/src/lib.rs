@@ -18,3 +18,19 @@ pub use schedule::{build_schedule, Phase, StepSet, SystemEntry, REGISTRY};
 /// Rows per parallel work item. Fixed, so the work split never depends on the thread count
 /// (the results do not either: every particle sums its own forces in list order).
 pub const CHUNK: usize = 2048;
+
+/// One coordinate of the body acceleration g (1 - rho_f/rho): a single value when all
+/// materials share it (the loop then needs no per-particle lookup), else per material.
+pub enum BodyColumn {
+    Uniform(f64),
+    PerMaterial(Vec<f64>),
+}
+
+pub fn body_acceleration_column(body: &grainflow_components::BodyAcceleration, d: usize) -> BodyColumn {
+    let g: Vec<f64> = body.per_material.iter().map(|g| g[d]).collect();
+    if g.iter().all(|&x| x == g[0]) {
+        BodyColumn::Uniform(g[0])
+    } else {
+        BodyColumn::PerMaterial(g)
+    }
+}

@@ -6,21 +6,16 @@ use bevy_ecs::prelude::*;
 use grainflow_components::{BodyAcceleration, Particles, SimClock};
 use rayon::prelude::*;
 
-use crate::CHUNK;
+use crate::{body_acceleration_column, BodyColumn, CHUNK};
 
-/// Half kick with the current forces, then drift (`drift = true`), or the closing half kick.
+/// Half kick with the current forces, then a drift when `drift` (the predictor), or the
+/// closing half kick alone (the corrector).
 fn half_kick(particles: &mut Particles, body: &BodyAcceleration, dt: f64, drift: bool) {
-    let Particles {
-        position,
-        velocity,
-        force,
-        inv_mass,
-        material,
-        ..
-    } = particles;
+    let Particles { position, velocity, force, inv_mass, material, .. } = particles;
     let h = 0.5 * dt;
+    let step = if drift { dt } else { 0.0 };
     for d in 0..3 {
-        let g: Vec<f64> = body.per_material.iter().map(|g| g[d]).collect();
+        let g = body_acceleration_column(body, d);
         (
             position[d].par_chunks_mut(CHUNK),
             velocity[d].par_chunks_mut(CHUNK),
@@ -30,30 +25,26 @@ fn half_kick(particles: &mut Particles, body: &BodyAcceleration, dt: f64, drift:
         )
             .into_par_iter()
             .for_each(|(x, v, f, im, m)| {
-                for k in 0..x.len() {
-                    v[k] += h * (f[k] * im[k] + g[m[k] as usize]);
-                    if drift {
-                        x[k] += dt * v[k];
-                    }
+                let n = x.len();
+                let (v, f, im, m) = (&mut v[..n], &f[..n], &im[..n], &m[..n]);
+                let mut kick = |k: usize, g: f64| {
+                    v[k] += h * (f[k] * im[k] + g);
+                    x[k] += step * v[k];
+                };
+                match &g {
+                    BodyColumn::Uniform(g) => (0..n).for_each(|k| kick(k, *g)),
+                    BodyColumn::PerMaterial(g) => (0..n).for_each(|k| kick(k, g[m[k] as usize])),
                 }
             });
     }
 }
 
-pub fn verlet_predict(
-    mut particles: ResMut<Particles>,
-    clock: Res<SimClock>,
-    body: Res<BodyAcceleration>,
-) {
+pub fn verlet_predict(mut particles: ResMut<Particles>, clock: Res<SimClock>, body: Res<BodyAcceleration>) {
     let _span = tracing::info_span!("verlet_predict").entered();
     half_kick(&mut particles, &body, clock.dt, true);
 }
 
-pub fn verlet_correct(
-    mut particles: ResMut<Particles>,
-    clock: Res<SimClock>,
-    body: Res<BodyAcceleration>,
-) {
+pub fn verlet_correct(mut particles: ResMut<Particles>, clock: Res<SimClock>, body: Res<BodyAcceleration>) {
     let _span = tracing::info_span!("verlet_correct").entered();
     half_kick(&mut particles, &body, clock.dt, false);
 }

@@ -222,3 +222,169 @@ impl Rng {
         lo + (hi - lo) * self.next_f64()
     }
 }
+
+/// A head-on impact: two identical spheres at +-`speed` along x, or one sphere falling
+/// along -z at `speed` onto a rigid plane z = 0. No gravity. `damping` is the material's
+/// damping line(s), e.g. `restitution = 0.5` or `normal_damping = 0.0`; the rigid wall
+/// material gets the same line so that the pair uses the same law.
+#[derive(Debug, Clone)]
+pub struct ImpactScene {
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+    pub density: f64,
+    pub radius: f64,
+    pub speed: f64,
+    pub wall: bool,
+    pub damping: String,
+}
+
+impl ImpactScene {
+    pub fn hertz(&self) -> Hertz {
+        let (e, nu, rho, r) = (
+            self.youngs_modulus,
+            self.poisson_ratio,
+            self.density,
+            self.radius,
+        );
+        if self.wall {
+            Hertz::rigid_wall(e, nu, rho, r)
+        } else {
+            Hertz::pair(e, nu, rho, r)
+        }
+    }
+
+    /// Approach speed: relative speed of the two spheres, or the sphere's speed.
+    pub fn approach_speed(&self) -> f64 {
+        if self.wall {
+            self.speed
+        } else {
+            2.0 * self.speed
+        }
+    }
+
+    /// Scene text; the surfaces start `gap` apart.
+    pub fn toml(&self, integrator: &str, dt: f64, gap: f64) -> String {
+        let (r, v) = (self.radius, self.speed);
+        let common = format!(
+            "[simulation]\ndt = {dt:e}\nend_time = 1.0\nintegrator = \"{integrator}\"\n\
+             gravity = [0.0, 0.0, 0.0]\n\n\
+             [[materials]]\nname = \"m\"\ndensity = {:e}\nyoungs_modulus = {:e}\n\
+             poisson_ratio = {}\n{}\n",
+            self.density, self.youngs_modulus, self.poisson_ratio, self.damping
+        );
+        if self.wall {
+            // Rigid plane: E = 1e25 Pa makes the wall's (1-nu^2)/E 1e-14 of the sphere's.
+            format!(
+                "{common}\n[[materials]]\nname = \"rigid\"\ndensity = 1.0\n\
+                 youngs_modulus = 1e25\n{}\n\n\
+                 [[walls]]\ntype = \"plane\"\nmaterial = \"rigid\"\n\
+                 point = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n\n\
+                 [[spheres]]\nmaterial = \"m\"\nradius = {r:e}\n\
+                 position = [0.0, 0.0, {:e}]\nvelocity = [0.0, 0.0, {:e}]\n",
+                self.damping,
+                r + gap,
+                -v
+            )
+        } else {
+            format!(
+                "{common}\n[[spheres]]\nmaterial = \"m\"\nradius = {r:e}\n\
+                 position = [{:e}, 0.0, 0.0]\nvelocity = [{v:e}, 0.0, 0.0]\n\n\
+                 [[spheres]]\nmaterial = \"m\"\nradius = {r:e}\n\
+                 position = [{:e}, 0.0, 0.0]\nvelocity = [{:e}, 0.0, 0.0]\n",
+                -(r + 0.5 * gap),
+                r + 0.5 * gap,
+                -v
+            )
+        }
+    }
+
+    /// Gap between the surfaces.
+    pub fn gap(&self, sim: &Simulation) -> f64 {
+        if self.wall {
+            position(sim, 0)[2] - self.radius
+        } else {
+            distance(position(sim, 0), position(sim, 1)) - 2.0 * self.radius
+        }
+    }
+
+    /// Normal approach velocity (positive while closing).
+    pub fn approach_velocity(&self, sim: &Simulation) -> f64 {
+        if self.wall {
+            -velocity(sim, 0)[2]
+        } else {
+            velocity(sim, 0)[0] - velocity(sim, 1)[0]
+        }
+    }
+
+    /// Build the scene with `dt` and the surfaces 20 steps of travel apart, and step it
+    /// through the contact.
+    pub fn run(&self, integrator: &str, dt: f64) -> (Simulation, Impact) {
+        let gap = 20.0 * dt * self.approach_speed();
+        let mut sim = simulation(&self.toml(integrator, dt, gap), "impact.toml");
+        let impact = step_through_contact(&mut sim, |s| self.gap(s), 1_000_000);
+        (sim, impact)
+    }
+}
+
+/// What `step_through_contact` saw.
+#[derive(Debug, Clone, Copy)]
+pub struct Impact {
+    /// Times at which the gap crossed zero, linearly interpolated between steps, s.
+    pub start: f64,
+    pub end: f64,
+    /// Largest overlap (-gap) at the end of a step, m.
+    pub max_overlap: f64,
+    /// Largest `RunHealth::max_overlap_ratio` (overlap / smaller radius) of any step.
+    pub max_overlap_ratio: f64,
+}
+
+impl Impact {
+    pub fn duration(&self) -> f64 {
+        self.end - self.start
+    }
+}
+
+/// Step until the gap has closed, reopened, and 200 more steps have passed: Gear carries
+/// the contact's jerk and snap a few steps beyond the separation, so velocities are read
+/// once those have decayed. Panics after `max_steps` or on a failed run.
+pub fn step_through_contact(
+    sim: &mut Simulation,
+    gap: impl Fn(&Simulation) -> f64,
+    max_steps: u64,
+) -> Impact {
+    let dt = sim.world.resource::<grainflow_components::SimClock>().dt;
+    let (mut start, mut end) = (None, None);
+    let (mut max_overlap, mut max_ratio) = (0.0f64, 0.0f64);
+    let mut previous = gap(sim);
+    let mut after = 0;
+    for k in 1..=max_steps {
+        sim.step();
+        if let Some(f) = sim.failure() {
+            panic!("run failed: {f}");
+        }
+        let g = gap(sim);
+        max_overlap = max_overlap.max(-g);
+        max_ratio = max_ratio.max(health(sim).max_overlap_ratio);
+        let t_cross = (k - 1) as f64 * dt + dt * previous / (previous - g);
+        if start.is_none() && previous > 0.0 && g <= 0.0 {
+            start = Some(t_cross);
+        } else if start.is_some() && end.is_none() && previous <= 0.0 && g > 0.0 {
+            end = Some(t_cross);
+        }
+        previous = g;
+        if end.is_some() {
+            after += 1;
+            if after == 200 {
+                return Impact {
+                    start: start.expect("start before end"),
+                    end: end.expect("end"),
+                    max_overlap,
+                    max_overlap_ratio: max_ratio,
+                };
+            }
+        }
+    }
+    panic!(
+        "no complete contact within {max_steps} steps (start {start:?}, end {end:?}, gap {previous:e})"
+    );
+}
