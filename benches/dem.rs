@@ -38,7 +38,12 @@ count = 50000
 "#
     );
     let path = Path::new("bench-dense.toml");
-    let mut sim = Simulation::new(grainflow::scene::parse(&scene, path, &[]).unwrap(), path, None).unwrap();
+    let mut sim = Simulation::new(
+        grainflow::scene::parse(&scene, path, &[]).unwrap(),
+        path,
+        None,
+    )
+    .unwrap();
     sim.start();
     sim
 }
@@ -46,7 +51,10 @@ count = 50000
 fn bench(c: &mut Criterion) {
     for threads in [1, 2] {
         // The work runs inside the pool; criterion's timer stays on this thread.
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         let mut group = c.benchmark_group(format!("dem_{threads}_thread"));
         group.sample_size(20);
         let mut sim = pool.install(|| dense_block("gear"));
@@ -56,7 +64,9 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 pool.install(|| {
                     sim.world.resource_mut::<VerletList>().stale = true;
-                    sim.world.run_system_once(neighbour_list::verlet_list).unwrap();
+                    sim.world
+                        .run_system_once(neighbour_list::verlet_list)
+                        .unwrap();
                 })
             })
         });
@@ -80,7 +90,9 @@ fn bench(c: &mut Criterion) {
                 })
             })
         });
-        group.bench_function(BenchmarkId::new("full_step_verlet", n), |b| b.iter(|| pool.install(|| sim.step())));
+        group.bench_function(BenchmarkId::new("full_step_verlet", n), |b| {
+            b.iter(|| pool.install(|| sim.step()))
+        });
         group.finish();
     }
 }

@@ -1,4 +1,5 @@
 //! The `grainflow` command line: `run` and `check`.
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -69,7 +70,14 @@ fn bad_input(e: SceneError) -> ExitCode {
     ExitCode::from(2)
 }
 
+/// Print without panicking when the reader has gone (`grainflow check SCENE | head`).
+fn emit(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().write_all(text.as_bytes());
+}
+
 fn check(args: CheckArgs) -> ExitCode {
+    let mut out = String::new();
     let scene = match scene::load(&args.scene, &args.set) {
         Ok(s) => s,
         Err(e) => return bad_input(e),
@@ -83,13 +91,15 @@ fn check(args: CheckArgs) -> ExitCode {
         Err(e) => return bad_input(e),
     };
     let p = sim.world.resource::<grainflow_components::Particles>();
-    println!("scene      {}", args.scene.display());
-    println!(
+    let _ = writeln!(out, "scene      {}", args.scene.display());
+    let _ = writeln!(
+        out,
         "particles  {} placed, {} by inflow",
         p.len(),
         scene.inflows.iter().map(|i| i.total).sum::<u64>()
     );
-    println!(
+    let _ = writeln!(
+        out,
         "materials  {}",
         scene
             .materials
@@ -98,36 +108,42 @@ fn check(args: CheckArgs) -> ExitCode {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    println!("walls      {}", scene.walls.len());
-    println!(
+    let _ = writeln!(out, "walls      {}", scene.walls.len());
+    let _ = writeln!(
+        out,
         "integrator {:?}, dt = {dt:.3e} s, end_time = {} s ({} steps)",
         scene.simulation.integrator,
         scene.simulation.end_time,
         (scene.simulation.end_time / dt).round()
     );
-    println!("schedule (one step, in order):");
+    let _ = writeln!(out, "schedule (one step, in order):");
     let mut last = None;
     for (set, name) in &sim.step_systems {
         if last != Some(*set) {
-            println!("  {set:?}");
+            let _ = writeln!(out, "  {set:?}");
             last = Some(*set);
         }
-        println!("    {name}");
+        let _ = writeln!(out, "    {name}");
     }
     let mut verdict = ExitCode::SUCCESS;
     match &sim.estimate {
         Some(est) => {
-            println!("stable time step:");
-            println!("  Rayleigh time step          {:.3e} s", est.rayleigh);
-            println!(
+            let _ = writeln!(out, "stable time step:");
+            let _ = writeln!(out, "  Rayleigh time step          {:.3e} s", est.rayleigh);
+            let _ = writeln!(
+                out,
                 "  Hertz contact time          {:.3e} s (impact speed {:.3} m/s)",
                 est.contact_time, est.impact_speed
             );
-            println!("  limit min(0.4 dt_R, t_c/10) {:.3e} s", est.limit);
-            println!("  recommended (0.2 dt_R, t_c/20) {:.3e} s", est.recommended);
+            let _ = writeln!(out, "  limit min(0.4 dt_R, t_c/10) {:.3e} s", est.limit);
+            let _ = writeln!(
+                out,
+                "  recommended (0.2 dt_R, t_c/20) {:.3e} s",
+                est.recommended
+            );
             if dt > est.limit {
                 if allowed {
-                    println!("warning: dt = {dt:.3e} s exceeds the stable limit {:.3e} s (allowed by simulation.allow_unstable_dt)", est.limit);
+                    let _ = writeln!(out, "warning: dt = {dt:.3e} s exceeds the stable limit {:.3e} s (allowed by simulation.allow_unstable_dt)", est.limit);
                 } else {
                     eprintln!(
                         "error: {}: field `simulation.dt`: dt = {dt:.3e} s exceeds the stable limit {:.3e} s; expected dt <= {:.3e} or simulation.allow_unstable_dt = true",
@@ -138,13 +154,16 @@ fn check(args: CheckArgs) -> ExitCode {
                     verdict = ExitCode::from(2);
                 }
             } else if dt > est.recommended {
-                println!("warning: dt = {dt:.3e} s is above the recommended {:.3e} s: contacts are resolved with few steps", est.recommended);
+                let _ = writeln!(out, "warning: dt = {dt:.3e} s is above the recommended {:.3e} s: contacts are resolved with few steps", est.recommended);
             } else {
-                println!("  dt = {dt:.3e} s is within the recommended step");
+                let _ = writeln!(out, "  dt = {dt:.3e} s is within the recommended step");
             }
         }
-        None => println!("stable time step: no particles"),
+        None => {
+            let _ = writeln!(out, "stable time step: no particles");
+        }
     }
+    emit(&out);
     verdict
 }
 
@@ -154,22 +173,19 @@ fn init_tracing(trace: Option<&Path>) -> Option<tracing_chrome::FlushGuard> {
         tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into());
     let fmt = tracing_subscriber::fmt::layer()
         .with_writer(std::io::stderr)
-        .with_target(false);
+        .with_target(false)
+        .with_filter(filter);
     match trace {
         Some(path) => {
             let (chrome, guard) = tracing_chrome::ChromeLayerBuilder::new()
                 .file(path)
                 .include_args(true)
                 .build();
-            tracing_subscriber::registry()
-                .with(filter)
-                .with(fmt)
-                .with(chrome)
-                .init();
+            tracing_subscriber::registry().with(fmt).with(chrome).init();
             Some(guard)
         }
         None => {
-            tracing_subscriber::registry().with(filter).with(fmt).init();
+            tracing_subscriber::registry().with(fmt).init();
             None
         }
     }
@@ -236,11 +252,12 @@ fn run(args: RunArgs) -> ExitCode {
             eprintln!("error: cannot write {}: {e}", summary_path.display());
             return ExitCode::from(1);
         }
+        let mut out = String::new();
         let rate = report.particle_steps / report.wall_seconds.max(1e-12);
         let sim_time = sim.world.resource::<grainflow_components::SimClock>().time;
         let remaining = (sim.scene.simulation.end_time - sim_time).max(0.0);
         let per_sim_second = report.wall_seconds / (report.steps as f64 * dt).max(1e-300);
-        println!(
+        let _ = writeln!(out,
             "{} steps in {:.2} s: {:.3e} particle-steps/s ({:.3e} per core); {:.1} bytes/particle of state",
             report.steps,
             report.wall_seconds,
@@ -248,13 +265,14 @@ fn run(args: RunArgs) -> ExitCode {
             rate / threads as f64,
             sim.bytes_per_particle()
         );
-        if remaining > 0.0 {
-            println!(
+        if remaining > 0.0 && report.failure.is_none() {
+            let _ = writeln!(out,
                 "projected wall time to end_time = {} s: {:.0} s more at this rate (particle count may change)",
                 sim.scene.simulation.end_time,
                 remaining * per_sim_second
             );
         }
+        emit(&out);
         match report.failure {
             Some(f) => {
                 eprintln!("error: {f}; output up to the last good frame kept in {}", out_dir.display());

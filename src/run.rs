@@ -239,7 +239,10 @@ impl Simulation {
             "max_overlap_ratio": health.run_max_overlap_ratio,
             "neighbour_list_builds": list.builds,
             "neighbours_per_particle": list.neighbours.len() as f64 / n.max(1) as f64,
-            "integrator": format!("{:?}", self.scene.simulation.integrator),
+            "integrator": match self.scene.simulation.integrator {
+                crate::scene::IntegratorName::Gear => "gear",
+                crate::scene::IntegratorName::VelocityVerlet => "velocity_verlet",
+            },
             "schedule": self.step_systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
             "observables": {},
         })

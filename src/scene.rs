@@ -302,10 +302,15 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, Sce
     let scene: Scene =
         serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
             let field = e.path().to_string();
-            err(
-                if field == "." { "" } else { &field },
-                e.into_inner().to_string().trim().to_string(),
-            )
+            // The TOML deserializer appends an "in `path`" line: the field is named already.
+            let message = e.into_inner().to_string();
+            let message = message
+                .lines()
+                .next()
+                .unwrap_or_default()
+                .trim()
+                .to_string();
+            err(if field == "." { "" } else { &field }, message)
         })?;
     let mut scene = scene;
     let base = path.parent().unwrap_or(Path::new("."));
@@ -390,6 +395,21 @@ fn finite3(field: String, v: [f64; 3]) -> Result<(), Invalid> {
         Ok(())
     } else {
         Err((field, format!("expected three finite numbers, got {v:?}")))
+    }
+}
+
+fn finite2(field: String, v: [f64; 2]) -> Result<(), Invalid> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err((field, format!("expected two finite numbers, got {v:?}")))
+    }
+}
+
+fn finite_opt(field: String, v: Option<f64>) -> Result<(), Invalid> {
+    match v {
+        Some(x) if !x.is_finite() => Err((field, format!("expected a finite number, got {x}"))),
+        _ => Ok(()),
     }
 }
 
@@ -506,13 +526,17 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
             }
             WallSpec::Cylinder {
                 material,
+                center,
                 radius,
                 bottom,
                 top,
                 ..
             } => {
                 known_material(s, f("material"), material)?;
+                finite2(f("center"), *center)?;
                 positive(f("radius"), *radius)?;
+                finite_opt(f("bottom"), *bottom)?;
+                finite_opt(f("top"), *top)?;
                 if let (Some(b), Some(t)) = (bottom, top) {
                     if t <= b {
                         return Err((f("top"), format!("expected top > bottom, got {t} <= {b}")));
@@ -521,6 +545,7 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
             }
             WallSpec::Cone {
                 material,
+                center,
                 radius_bottom,
                 radius_top,
                 bottom,
@@ -528,6 +553,9 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 ..
             } => {
                 known_material(s, f("material"), material)?;
+                finite2(f("center"), *center)?;
+                finite_opt(f("bottom"), Some(*bottom))?;
+                finite_opt(f("top"), Some(*top))?;
                 if !(*radius_bottom >= 0.0
                     && *radius_top >= 0.0
                     && radius_bottom.max(*radius_top) > 0.0)
@@ -537,7 +565,7 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                         "expected radii >= 0, not both zero".into(),
                     ));
                 }
-                if top <= bottom {
+                if !(top > bottom) {
                     return Err((
                         f("top"),
                         format!("expected top > bottom, got {top} <= {bottom}"),
@@ -574,6 +602,7 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 ));
             }
         }
+        finite3(f("velocity"), b.velocity)?;
         if !(0.0..=1.0).contains(&b.jitter) {
             return Err((
                 f("jitter"),
@@ -590,6 +619,24 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
         positive(f("rate"), i.rate)?;
         if let Some(v) = i.interval {
             positive(f("interval"), v)?;
+        }
+        if !(i.start.is_finite() && i.start >= 0.0) {
+            return Err((f("start"), format!("expected a time >= 0, got {}", i.start)));
+        }
+        if let Some(stop) = i.stop {
+            if !(stop.is_finite() && stop >= i.start) {
+                return Err((
+                    f("stop"),
+                    format!("expected a time >= start = {}, got {stop}", i.start),
+                ));
+            }
+        }
+        finite3(f("velocity"), i.velocity)?;
+        if !(i.velocity_jitter.is_finite() && i.velocity_jitter >= 0.0) {
+            return Err((
+                f("velocity_jitter"),
+                format!("expected a speed >= 0, got {}", i.velocity_jitter),
+            ));
         }
         if i.radii.is_empty() || i.radii.len() != i.fractions.len() {
             return Err((
@@ -609,6 +656,8 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
         }
         match &i.region {
             RegionSpec::Box { min, max } => {
+                finite3(f("region.min"), *min)?;
+                finite3(f("region.max"), *max)?;
                 if (0..3).any(|d| max[d] <= min[d]) {
                     return Err((
                         f("region.max"),
@@ -617,13 +666,24 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 }
             }
             RegionSpec::Cylinder {
+                center,
                 radius,
                 bottom,
                 top,
-                ..
             } => {
+                finite2(f("region.center"), *center)?;
                 positive(f("region.radius"), *radius)?;
-                if top <= bottom {
+                let r_max = i.radii.iter().copied().fold(0.0, f64::max);
+                if *radius <= r_max {
+                    return Err((
+                        f("region.radius"),
+                        format!(
+                            "expected a radius > the largest particle radius {r_max}, got {radius}"
+                        ),
+                    ));
+                }
+                finite_opt(f("region.bottom"), Some(*bottom))?;
+                if !(top > bottom) {
                     return Err((f("region.top"), "expected top > bottom".into()));
                 }
             }

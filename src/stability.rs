@@ -33,8 +33,9 @@ pub struct StepEstimate {
 }
 
 /// Estimate over all particle radii and materials present (placed and inflowing). The
-/// impact speed is the largest of the initial and inflow speeds and the free-fall speed
-/// sqrt(2 g H) over the scene's height H along gravity.
+/// impact speed is twice (two particles meeting head-on) the largest of the initial and
+/// inflow speeds and the free-fall speed sqrt(2 g H) over the scene's height H along
+/// gravity (particles, inflow regions, plane and box walls).
 pub fn estimate(
     scene: &Scene,
     particles: &Particles,
@@ -92,12 +93,18 @@ pub fn estimate(
         speed = speed.max(v2.sqrt() + 3f64.sqrt() * f.velocity_jitter);
     }
     for w in &scene.walls {
-        if let crate::scene::WallSpec::Plane { point, .. } = w {
-            along(*point);
+        match w {
+            crate::scene::WallSpec::Plane { point, .. } => along(*point),
+            crate::scene::WallSpec::Box { min, max, .. } => {
+                along(*min);
+                along(*max);
+            }
+            _ => {}
         }
     }
     let height = if hi > lo { hi - lo } else { 0.0 };
-    let impact_speed = speed.max((2.0 * g_norm * height).sqrt()).max(1e-3);
+    // Two particles may meet head-on, each at the largest speed.
+    let impact_speed = 2.0 * speed.max((2.0 * g_norm * height).sqrt()).max(1e-3);
     let mut rayleigh = f64::INFINITY;
     let mut contact_time = f64::INFINITY;
     for (r, m) in sizes {

@@ -49,7 +49,10 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
     let path = Path::new("contact-store.toml");
     let scene = scene::parse(SCENE, path, &[]).expect("scene");
     let mut sim = Simulation::new(scene, path, None).expect("world");
-    sim.world.insert_resource(ContactHistory { width: 2, values: Vec::new() });
+    sim.world.insert_resource(ContactHistory {
+        width: 2,
+        values: Vec::new(),
+    });
     sim.start();
     let mut carried = 0usize;
     let mut last_builds = sim.world.resource::<VerletList>().builds;
@@ -64,14 +67,22 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
         let ids = sim.world.resource::<Particles>().id.clone();
         let list = sim.world.resource::<VerletList>().clone();
         let mut history = sim.world.resource_mut::<ContactHistory>();
-        assert_eq!(history.values.len(), 2 * list.neighbours.len(), "one history slot per list entry");
+        assert_eq!(
+            history.values.len(),
+            2 * list.neighbours.len(),
+            "one history slot per list entry"
+        );
         for i in 0..ids.len() {
             for k in list.start[i] as usize..list.start[i + 1] as usize {
                 let j = list.neighbours[k] as usize;
                 let want = key(ids[i], ids[j]);
                 let slot = &mut history.values[2 * k..2 * k + 2];
                 if slot[0] != 0.0 {
-                    assert_eq!(slot[0], want, "history of pair ({}, {}) came from another pair", ids[i], ids[j]);
+                    assert_eq!(
+                        slot[0], want,
+                        "history of pair ({}, {}) came from another pair",
+                        ids[i], ids[j]
+                    );
                     assert_eq!(slot[1], -want);
                     carried += rebuilt as usize;
                 }
@@ -80,6 +91,12 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
             }
         }
     }
-    assert!(rebuilds_seen >= 10, "the falling block must rebuild its list many times ({rebuilds_seen})");
-    assert!(carried > 1000, "pairs listed before and after a rebuild keep their history ({carried})");
+    assert!(
+        rebuilds_seen >= 10,
+        "the falling block must rebuild its list many times ({rebuilds_seen})"
+    );
+    assert!(
+        carried > 1000,
+        "pairs listed before and after a rebuild keep their history ({carried})"
+    );
 }

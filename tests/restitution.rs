@@ -27,7 +27,7 @@ use common::*;
 
 /// Steps per analytic (undamped) contact time: 1000 resolves the contact far beyond the
 /// tolerances (measured deviations are listed in the printout; below 1e-4 for e).
-const STEPS_PER_TC: f64 = 1000.0;
+const STEPS_PER_TC: f64 = 2000.0;
 const INTEGRATORS: [&str; 2] = ["gear", "velocity_verlet"];
 
 /// Coefficient of restitution of one simulated impact: normal separation speed after

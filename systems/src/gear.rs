@@ -14,12 +14,20 @@ use rayon::prelude::*;
 
 use crate::{body_acceleration_column, BodyColumn, CHUNK};
 
-pub fn gear_predict(mut particles: ResMut<Particles>, mut gear: ResMut<GearState>, clock: Res<SimClock>) {
+pub fn gear_predict(
+    mut particles: ResMut<Particles>,
+    mut gear: ResMut<GearState>,
+    clock: Res<SimClock>,
+) {
     let _span = tracing::info_span!("gear_predict").entered();
     let dt = clock.dt;
     let (h2, h3, h4) = (dt * dt / 2.0, dt * dt * dt / 6.0, dt * dt * dt * dt / 24.0);
-    let GearState { acc, jerk, snap, .. } = &mut *gear;
-    let Particles { position, velocity, .. } = &mut *particles;
+    let GearState {
+        acc, jerk, snap, ..
+    } = &mut *gear;
+    let Particles {
+        position, velocity, ..
+    } = &mut *particles;
     for d in 0..3 {
         (
             position[d].par_chunks_mut(CHUNK),
@@ -52,8 +60,17 @@ pub fn gear_correct(
     let dt = clock.dt;
     let cx = gear.alpha0 * dt * dt / 2.0;
     let (cv, cb, cc) = (3.0 / 8.0 * dt, 1.5 / dt, 1.0 / (dt * dt));
-    let GearState { acc, jerk, snap, .. } = &mut *gear;
-    let Particles { position, velocity, force, inv_mass, material, .. } = &mut *particles;
+    let GearState {
+        acc, jerk, snap, ..
+    } = &mut *gear;
+    let Particles {
+        position,
+        velocity,
+        force,
+        inv_mass,
+        material,
+        ..
+    } = &mut *particles;
     for d in 0..3 {
         let g = body_acceleration_column(&body, d);
         (
@@ -69,7 +86,15 @@ pub fn gear_correct(
             .into_par_iter()
             .for_each(|(x, v, a, b, c, f, im, m)| {
                 let n = x.len();
-                let (v, a, b, c, f, im, m) = (&mut v[..n], &mut a[..n], &mut b[..n], &mut c[..n], &f[..n], &im[..n], &m[..n]);
+                let (v, a, b, c, f, im, m) = (
+                    &mut v[..n],
+                    &mut a[..n],
+                    &mut b[..n],
+                    &mut c[..n],
+                    &f[..n],
+                    &im[..n],
+                    &m[..n],
+                );
                 let mut correct = |k: usize, g: f64| {
                     let delta = f[k] * im[k] + g - a[k];
                     x[k] += cx * delta;
@@ -87,7 +112,11 @@ pub fn gear_correct(
 }
 
 /// Start-up: the acceleration from the forces at t = 0, higher derivatives zero.
-pub fn gear_start(particles: Res<Particles>, mut gear: ResMut<GearState>, body: Res<BodyAcceleration>) {
+pub fn gear_start(
+    particles: Res<Particles>,
+    mut gear: ResMut<GearState>,
+    body: Res<BodyAcceleration>,
+) {
     for d in 0..3 {
         for i in 0..particles.len() {
             gear.acc[d][i] = particles.force[d][i] * particles.inv_mass[i]

@@ -142,7 +142,13 @@ fn contact_kernel<T: PairTable>(
                     let delta = rs - d;
                     let delta_dot = -((vxi - vx[j]) * nx + (vyi - vy[j]) * ny + (vzi - vz[j]) * nz);
                     let p = table.get(mi, mat[j]);
-                    let f = hertz_normal_force(p, ri * rj * (q * d), inv_mi + inv_m[j], delta, delta_dot);
+                    let f = hertz_normal_force(
+                        p,
+                        ri * rj * (q * d),
+                        inv_mi + inv_m[j],
+                        delta,
+                        delta_dot,
+                    );
                     sx += f * nx;
                     sy += f * ny;
                     sz += f * nz;

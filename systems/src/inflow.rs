@@ -1,7 +1,11 @@
 //! Continuous particle inflow: batches of particles placed on free sites of a jittered
 //! lattice inside the inflow region, at the scene's rate.
 use bevy_ecs::prelude::*;
-use grainflow_components::{Inflow, InflowRegion, Inflows, Materials, Particles, VerletList};
+use grainflow_components::{
+    Inflow, InflowRegion, Inflows, Materials, Particles, VerletList, Walls,
+};
+
+use crate::walls::{wall_contains, wall_distance};
 
 pub fn has_inflow(w: &World) -> bool {
     w.get_resource::<Inflows>()
@@ -29,6 +33,7 @@ pub fn inflow_insertion(
     mut particles: ResMut<Particles>,
     materials: Res<Materials>,
     mut list: ResMut<VerletList>,
+    walls: Option<Res<Walls>>,
 ) {
     let t = clock.time;
     let Inflows {
@@ -47,7 +52,7 @@ pub fn inflow_insertion(
         if want == 0 {
             continue;
         }
-        let sites = free_sites(flow, &particles);
+        let sites = free_sites(flow, &particles, walls.as_deref());
         let density = materials.list[flow.material as usize].density;
         for (k, site) in sites.into_iter().take(want).enumerate() {
             let radius = draw_radius(flow);
@@ -85,9 +90,9 @@ fn draw_radius(flow: &mut Inflow) -> f64 {
 }
 
 /// Sites of a lattice with spacing 2.1 r_max in the region, jittered by +-0.04 r_max,
-/// that no present particle overlaps, in random order. Sites are 2.02 r_max apart at
+/// that no present particle overlaps and that keep clear of the walls, in random order. Sites are 2.02 r_max apart at
 /// least, so particles placed on them never overlap each other.
-fn free_sites(flow: &mut Inflow, particles: &Particles) -> Vec<[f64; 3]> {
+fn free_sites(flow: &mut Inflow, particles: &Particles, walls: Option<&Walls>) -> Vec<[f64; 3]> {
     let r_max = flow.radii.iter().copied().fold(0.0, f64::max);
     let a = 2.1 * r_max;
     let (lo, hi) = match flow.region {
@@ -148,7 +153,16 @@ fn free_sites(flow: &mut Inflow, particles: &Particles) -> Vec<[f64; 3]> {
                         continue;
                     }
                 }
-                sites.push(c);
+                // Inside every active wall, clear of it by the largest radius.
+                let clear = walls.is_none_or(|w| {
+                    w.list.iter().filter(|w| w.active).all(|w| {
+                        wall_contains(&w.shape, c) != Some(false)
+                            && wall_distance(&w.shape, c).0 > 1.05 * r_max
+                    })
+                });
+                if clear {
+                    sites.push(c);
+                }
             }
         }
     }

@@ -26,7 +26,10 @@ pub enum BodyColumn {
     PerMaterial(Vec<f64>),
 }
 
-pub fn body_acceleration_column(body: &grainflow_components::BodyAcceleration, d: usize) -> BodyColumn {
+pub fn body_acceleration_column(
+    body: &grainflow_components::BodyAcceleration,
+    d: usize,
+) -> BodyColumn {
     let g: Vec<f64> = body.per_material.iter().map(|g| g[d]).collect();
     if g.iter().all(|&x| x == g[0]) {
         BodyColumn::Uniform(g[0])

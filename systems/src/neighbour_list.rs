@@ -6,7 +6,9 @@
 //! the particles are re-sorted in cell order (counting sort on the cell index), so that
 //! neighbours are close in memory.
 use bevy_ecs::prelude::*;
-use grainflow_components::{ContactHistory, NeighbourSettings, Particles, PerParticle, Reorder, VerletList};
+use grainflow_components::{
+    ContactHistory, NeighbourSettings, Particles, PerParticle, Reorder, VerletList,
+};
 use rayon::prelude::*;
 
 use crate::CHUNK;
@@ -283,7 +285,12 @@ struct OldList {
 fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list: &VerletList) {
     let w = history.width;
     let n = ids.len();
-    let max_id = ids.iter().chain(&old.ids).copied().max().map_or(0, |m| m as usize + 1);
+    let max_id = ids
+        .iter()
+        .chain(&old.ids)
+        .copied()
+        .max()
+        .map_or(0, |m| m as usize + 1);
     let mut old_row = vec![u32::MAX; max_id];
     for (row, &id) in old.ids.iter().enumerate() {
         old_row[id as usize] = row as u32;
@@ -300,10 +307,14 @@ fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list:
                 if oi == u32::MAX || old.start.len() <= oi as usize + 1 {
                     continue;
                 }
-                let old_row_entries = old.start[oi as usize] as usize..old.start[oi as usize + 1] as usize;
+                let old_row_entries =
+                    old.start[oi as usize] as usize..old.start[oi as usize + 1] as usize;
                 for k in list.start[i] as usize..list.start[i + 1] as usize {
                     let oj = old_row[ids[list.neighbours[k] as usize] as usize];
-                    if let Some(pos) = old.neighbours[old_row_entries.clone()].iter().position(|&x| x == oj) {
+                    if let Some(pos) = old.neighbours[old_row_entries.clone()]
+                        .iter()
+                        .position(|&x| x == oj)
+                    {
                         let src = (old_row_entries.start + pos) * w;
                         let dst = (k - entries.start) * w;
                         out[dst..dst + w].copy_from_slice(&old_values[src..src + w]);

@@ -11,7 +11,14 @@ use crate::{body_acceleration_column, BodyColumn, CHUNK};
 /// Half kick with the current forces, then a drift when `drift` (the predictor), or the
 /// closing half kick alone (the corrector).
 fn half_kick(particles: &mut Particles, body: &BodyAcceleration, dt: f64, drift: bool) {
-    let Particles { position, velocity, force, inv_mass, material, .. } = particles;
+    let Particles {
+        position,
+        velocity,
+        force,
+        inv_mass,
+        material,
+        ..
+    } = particles;
     let h = 0.5 * dt;
     let step = if drift { dt } else { 0.0 };
     for d in 0..3 {
@@ -39,12 +46,20 @@ fn half_kick(particles: &mut Particles, body: &BodyAcceleration, dt: f64, drift:
     }
 }
 
-pub fn verlet_predict(mut particles: ResMut<Particles>, clock: Res<SimClock>, body: Res<BodyAcceleration>) {
+pub fn verlet_predict(
+    mut particles: ResMut<Particles>,
+    clock: Res<SimClock>,
+    body: Res<BodyAcceleration>,
+) {
     let _span = tracing::info_span!("verlet_predict").entered();
     half_kick(&mut particles, &body, clock.dt, true);
 }
 
-pub fn verlet_correct(mut particles: ResMut<Particles>, clock: Res<SimClock>, body: Res<BodyAcceleration>) {
+pub fn verlet_correct(
+    mut particles: ResMut<Particles>,
+    clock: Res<SimClock>,
+    body: Res<BodyAcceleration>,
+) {
     let _span = tracing::info_span!("verlet_correct").entered();
     half_kick(&mut particles, &body, clock.dt, false);
 }
