@@ -21,6 +21,7 @@ mod common;
 use common::*;
 use grainflow::run::Simulation;
 use grainflow_components::{NeighbourSettings, Particles, VerletList};
+use grainflow_systems::neighbour_list::CellGrid;
 
 struct Sphere {
     radius: f64,
@@ -59,9 +60,18 @@ fn random_spheres(
     out
 }
 
-fn scene(spheres: &[Sphere], walls: Option<([f64; 3], [f64; 3])>, gravity: f64) -> String {
+/// Scene of `spheres`, optionally in a box, with the default skin (0.2 x the largest
+/// radius) or `skin`.
+fn scene(
+    spheres: &[Sphere],
+    walls: Option<([f64; 3], [f64; 3])>,
+    gravity: f64,
+    skin: Option<f64>,
+    dt: f64,
+) -> String {
+    let skin = skin.map_or(String::new(), |s| format!("[neighbour]\nskin = {s:e}\n\n"));
     let mut s = format!(
-        "[simulation]\ndt = 2e-6\nend_time = 1.0\ngravity = [0.0, 0.0, {gravity}]\n\n\
+        "[simulation]\ndt = {dt:e}\nend_time = 1.0\ngravity = [0.0, 0.0, {gravity}]\n\n{skin}\
          [[materials]]\nname = \"m\"\ndensity = 2500.0\nyoungs_modulus = 1e7\n\
          poisson_ratio = 0.3\nrestitution = 0.5\n"
     );
@@ -93,9 +103,9 @@ fn row(list: &VerletList, i: usize) -> Vec<u32> {
     r
 }
 
-/// Check the list of the current state against brute force. Returns the number of listed
-/// pairs.
-fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> usize {
+/// Check the list of the current state against brute force. Returns the number of list
+/// entries (twice the pairs) and of pairs in contact.
+fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
     let p = sim.world.resource::<Particles>();
     let list = sim.world.resource::<VerletList>();
     let skin = sim.world.resource::<NeighbourSettings>().skin;
@@ -122,6 +132,7 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> usize {
     let max_disp = (0..n)
         .map(|i| ((x[i] - rx[i]).powi(2) + (y[i] - ry[i]).powi(2) + (z[i] - rz[i]).powi(2)).sqrt())
         .fold(0.0, f64::max);
+    let mut contacts = 0;
     assert!(
         max_disp <= 0.5 * skin * (1.0 + 1e-9) + 1e-15,
         "a particle moved {max_disp:e} m since the last rebuild, more than skin/2 = {:e} m",
@@ -152,6 +163,9 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> usize {
                 continue;
             }
             let d = distance([x[i], y[i], z[i]], [x[j], y[j], z[j]]);
+            if j < i && d < r[i] + r[j] {
+                contacts += 1;
+            }
             let reach = r[i] + r[j] + skin - 2.0 * max_disp;
             if d < reach * (1.0 - 1e-12) || d < r[i] + r[j] {
                 assert!(
@@ -165,26 +179,38 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> usize {
             }
         }
     }
-    list.neighbours.len()
+    (list.neighbours.len(), contacts)
 }
 
-fn static_set(seed: u64, n: usize, radii: (f64, f64), lo: [f64; 3], hi: [f64; 3]) {
-    let mut rng = Rng(seed);
-    let spheres = random_spheres(&mut rng, n, radii, lo, hi, 0.0);
+fn static_set(spheres: &[Sphere], skin: Option<f64>) {
     let radius_of_id: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
-    let mut sim = simulation(&scene(&spheres, None, 0.0), "static.toml");
+    let mut sim = simulation(&scene(spheres, None, 0.0, skin, 2e-6), "static.toml");
     sim.step();
-    let pairs = check_list(&sim, &radius_of_id);
-    assert!(pairs > n, "too few pairs ({pairs}) for a meaningful check");
+    let (entries, _) = check_list(&sim, &radius_of_id);
+    // At least one neighbour per particle on average, for a meaningful comparison.
+    assert!(
+        entries >= spheres.len(),
+        "too few pairs ({}) for a meaningful check",
+        entries / 2
+    );
 }
 
 #[test]
 fn dense_polydisperse_sets() {
-    // Size ratio 3 and 10; seeds chosen arbitrarily.
-    for seed in [1, 2, 3] {
-        static_set(seed, 400, (0.5e-3, 1.5e-3), [0.0; 3], [0.02, 0.02, 0.02]);
+    // Size ratios 3 and 10, default and wide skins; seeds chosen arbitrarily.
+    let cube = |a: f64| ([0.0; 3], [a, a, a]);
+    for (seed, skin) in [(1, None), (2, Some(0.5e-3)), (3, Some(1.5e-3))] {
+        let (lo, hi) = cube(0.018);
+        static_set(
+            &random_spheres(&mut Rng(seed), 450, (0.5e-3, 1.5e-3), lo, hi, 0.0),
+            skin,
+        );
     }
-    static_set(7, 300, (0.2e-3, 2.0e-3), [0.0; 3], [0.025, 0.025, 0.025]);
+    let (lo, hi) = cube(0.02);
+    static_set(
+        &random_spheres(&mut Rng(7), 300, (0.2e-3, 2.0e-3), lo, hi, 0.0),
+        Some(1e-3),
+    );
 }
 
 #[test]
@@ -204,11 +230,15 @@ fn sparse_tall_set_uses_large_cells() {
             0.0,
         ));
     }
-    let radius_of_id: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
-    let mut sim = simulation(&scene(&spheres, None, 0.0), "tall.toml");
-    sim.step();
-    let pairs = check_list(&sim, &radius_of_id);
-    assert!(pairs > spheres.len());
+    let skin = 1e-3;
+    let sim = simulation(&scene(&spheres, None, 0.0, Some(skin), 2e-6), "tall.toml");
+    let grid = CellGrid::new(sim.world.resource::<Particles>(), skin);
+    assert!(
+        grid.edge > 2.0 * 1.5e-3 + skin,
+        "the grid did not take its large-cell path (edge {:e} m)",
+        grid.edge
+    );
+    static_set(&spheres, Some(skin));
 }
 
 #[test]
@@ -217,10 +247,11 @@ fn falling_block_through_many_rebuilds() {
     let mut rng = Rng(2024);
     let spheres = random_spheres(&mut rng, 300, (0.5e-3, 1.5e-3), lo, hi, 0.5);
     let radius_of_id: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
-    std::fs::write("/tmp/dbg/falling.toml", scene(&spheres, Some((lo, hi)), -9.81)).unwrap();
-    let mut sim = simulation(&scene(&spheres, Some((lo, hi)), -9.81), "falling.toml");
-    let mut rebuild_steps = 0;
-    let mut last_builds = 0;
+    let mut sim = simulation(
+        &scene(&spheres, Some((lo, hi)), -200.0, None, 4e-6),
+        "falling.toml",
+    );
+    let (mut rebuild_steps, mut last_builds, mut most_contacts) = (0, 0, 0);
     for _ in 0..3000 {
         sim.step();
         assert!(sim.failure().is_none(), "{:?}", sim.failure());
@@ -229,18 +260,22 @@ fn falling_block_through_many_rebuilds() {
             rebuild_steps += 1;
             last_builds = builds;
         }
-        check_list(&sim, &radius_of_id);
+        let (_, contacts) = check_list(&sim, &radius_of_id);
+        most_contacts = most_contacts.max(contacts);
     }
     let list = sim.world.resource::<VerletList>();
     eprintln!(
-        "3000 steps: {} list builds, {} re-sorts, {} listed pairs at the end",
+        "3000 steps: {} list builds, {} re-sorts, {} listed pairs at the end, up to {} \
+         contacts",
         list.builds,
         list.sorts,
-        list.neighbours.len() / 2
+        list.neighbours.len() / 2,
+        most_contacts
     );
     assert!(
-        rebuild_steps >= 20 && list.sorts >= 20,
-        "the run did not exercise rebuilds and re-sorts ({} builds, {} sorts)",
+        rebuild_steps >= 50 && list.sorts >= 50 && most_contacts >= 20,
+        "the run did not exercise rebuilds, re-sorts and contacts ({} builds, {} sorts, up \
+         to {most_contacts} contacts)",
         list.builds,
         list.sorts
     );

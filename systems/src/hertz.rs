@@ -9,7 +9,7 @@ use std::ops::{Add, Div, Mul, Sub};
 use bevy_ecs::prelude::*;
 use grainflow_components::{Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls};
 use rayon::prelude::*;
-use wide::{f64x4, CmpLt};
+use wide::{f64x4, CmpGt, CmpLt};
 
 use crate::walls::wall_distance;
 use crate::CHUNK;
@@ -105,6 +105,16 @@ pub fn hertz_normal_force<T: Real, D: NormalDamping>(
 /// does no table gather.
 trait PairTable: Sync {
     fn get(&self, a: u16, b: u16) -> &PairParams;
+    /// (4/3) E* and the damping coefficient of particle material `a` with the particles
+    /// `js`, as lanes.
+    #[inline(always)]
+    fn lanes<D: NormalDamping>(&self, a: u16, mat: &[u16], js: &[usize; 4]) -> (f64x4, f64x4) {
+        let p = js.map(|j| self.get(a, mat[j]));
+        (
+            f64x4::new(p.map(|p| p.hertz_factor)),
+            f64x4::new(p.map(D::coefficient)),
+        )
+    }
 }
 
 struct OneMaterial(PairParams);
@@ -113,6 +123,10 @@ impl PairTable for OneMaterial {
     #[inline(always)]
     fn get(&self, _: u16, _: u16) -> &PairParams {
         &self.0
+    }
+    #[inline(always)]
+    fn lanes<D: NormalDamping>(&self, _: u16, _: &[u16], _: &[usize; 4]) -> (f64x4, f64x4) {
+        (f64x4::splat(self.0.hertz_factor), f64x4::splat(D::coefficient(&self.0)))
     }
 }
 
@@ -176,6 +190,8 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
     let (start, nbr) = (&list.start, &list.neighbours);
     let [fx, fy, fz] = force;
     let zero = f64x4::ZERO;
+    // Lane masks of a group of 1, 2, 3 or 4 neighbours.
+    let row_mask = [1, 2, 3, 4].map(|n| f64x4::new([0, 1, 2, 3].map(|l| if l < n { 1.0 } else { 0.0 })).cmp_gt(f64x4::splat(0.5)));
     (fx.par_chunks_mut(CHUNK), fy.par_chunks_mut(CHUNK), fz.par_chunks_mut(CHUNK))
         .into_par_iter()
         .enumerate()
@@ -191,22 +207,16 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
                 for group in nbr[start[i] as usize..start[i + 1] as usize].chunks(4) {
                     // Lanes past the row's end point at particle i itself and are masked.
                     let mut js = [i; 4];
-                    let mut valid = [0.0f64; 4];
-                    let mut hf = [0.0f64; 4];
-                    let mut damp = [0.0f64; 4];
                     for (l, &j) in group.iter().enumerate() {
                         js[l] = j as usize;
-                        valid[l] = 1.0;
-                        let p = table.get(mi, mat[j as usize]);
-                        hf[l] = p.hertz_factor;
-                        damp[l] = D::coefficient(p);
                     }
+                    let (hf, damp) = table.lanes::<D>(mi, mat, &js);
                     let rj = gather(r, &js);
                     let (dx, dy, dz) = (xi - gather(x, &js), yi - gather(y, &js), zi - gather(z, &js));
                     let d2 = dx * dx + dy * dy + dz * dz;
                     let ri4 = f64x4::splat(ri);
                     let rs = ri4 + rj;
-                    let touching = d2.cmp_lt(rs * rs) & f64x4::splat(0.5).cmp_lt(f64x4::new(valid));
+                    let touching = d2.cmp_lt(rs * rs) & row_mask[group.len() - 1];
                     if touching.none() {
                         continue;
                     }
@@ -222,8 +232,8 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
                     let r_eff = ri4 * rj * (q * d);
                     let inv_mass_sum = inv_mi + gather(inv_m, &js);
                     let f = hertz_normal_force::<f64x4, D>(
-                        f64x4::new(hf),
-                        f64x4::new(damp),
+                        hf,
+                        damp,
                         r_eff,
                         inv_mass_sum,
                         delta,

@@ -1,0 +1,170 @@
+//! Reproducibility of runs (no physical reference: the property is that the result is a
+//! function of the scene alone). grainflow's contact loop sums each particle's forces over
+//! its own row of the full Verlet list in list order, and every reduction runs over fixed
+//! chunks of `grainflow_systems::CHUNK` rows added in chunk order (`systems/src/lib.rs`,
+//! `hertz.rs`, `monitor.rs`), so the thread count must not change a single bit.
+//!
+//! The CLI runs a small scene (two polydisperse blocks, about 3500 spheres, so that the
+//! work is split in two chunks of 2048 rows and the two threads really share it; one falls
+//! onto the other in a box) with `--threads 1` and `--threads 2`, and again with
+//! `--threads 2`. Every dataset and attribute of every frame of `particles.h5` must be
+//! bitwise identical, and so must `kinetic_energy` and `max_overlap_ratio` of
+//! `summary.json`. Tolerance: none (bit equality).
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use common::*;
+
+const SCENE: &str = r#"
+[simulation]
+dt = 5e-6
+end_time = 1.0
+gravity = [0.0, 0.0, -9.81]
+output_interval = 2.5e-4
+
+[[materials]]
+name = "grain"
+density = 2500.0
+youngs_modulus = 1e7
+poisson_ratio = 0.3
+restitution = 0.5
+
+[[walls]]
+type = "box"
+material = "grain"
+min = [0.0, 0.0, 0.0]
+max = [0.04, 0.04, 0.05]
+
+# Lower block, at rest on the floor.
+[[blocks]]
+material = "grain"
+radius = 1.0e-3
+min = [1.2e-3, 1.2e-3, 1.2e-3]
+max = [0.0388, 0.0388, 0.0095]
+spacing = 2.3e-3
+jitter = 1.0
+count = 1700
+
+# Upper block of smaller spheres falling onto it at 1 m/s, moving sideways.
+[[blocks]]
+material = "grain"
+radius = 0.6e-3
+min = [0.8e-3, 0.8e-3, 0.0105]
+max = [0.0392, 0.0392, 0.0160]
+spacing = 1.4e-3
+jitter = 1.0
+velocity = [0.3, -0.2, -1.0]
+count = 1800
+"#;
+
+/// Everything in `particles.h5`: (frame/dataset or frame@attribute) -> raw bits.
+fn read_h5(path: &Path) -> BTreeMap<String, Vec<u64>> {
+    let file = hdf5::File::open(path).expect("open particles.h5");
+    let mut out = BTreeMap::new();
+    for frame in file.member_names().expect("list frames") {
+        let group = file.group(&frame).expect("frame group");
+        let time: f64 = group
+            .attr("time")
+            .and_then(|a| a.read_scalar())
+            .expect("time attribute");
+        out.insert(format!("{frame}@time"), vec![time.to_bits()]);
+        for name in group.member_names().expect("list datasets") {
+            let ds = group.dataset(&name).expect("dataset");
+            let bits: Vec<u64> = if name == "id" {
+                ds.read_raw::<u32>()
+                    .expect("read ids")
+                    .into_iter()
+                    .map(u64::from)
+                    .collect()
+            } else {
+                ds.read_raw::<f64>()
+                    .expect("read data")
+                    .into_iter()
+                    .map(f64::to_bits)
+                    .collect()
+            };
+            out.insert(format!("{frame}/{name}"), bits);
+        }
+    }
+    out
+}
+
+struct RunResult {
+    h5: BTreeMap<String, Vec<u64>>,
+    summary: serde_json::Value,
+}
+
+fn run(scene: &Path, out: &Path, threads: usize) -> RunResult {
+    let (code, stdout, stderr) = run_cli(&[
+        "run",
+        scene.to_str().expect("utf-8 path"),
+        "--out",
+        out.to_str().expect("utf-8 path"),
+        "--steps",
+        "600",
+        "--threads",
+        &threads.to_string(),
+    ]);
+    assert_eq!(
+        code, 0,
+        "run with {threads} threads failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("summary.json")).expect("summary.json"),
+    )
+    .expect("summary.json is JSON");
+    RunResult {
+        h5: read_h5(&out.join("particles.h5")),
+        summary,
+    }
+}
+
+fn assert_identical(a: &RunResult, b: &RunResult, what: &str) {
+    assert_eq!(
+        a.h5.keys().collect::<Vec<_>>(),
+        b.h5.keys().collect::<Vec<_>>(),
+        "{what}: particles.h5 holds different frames or datasets"
+    );
+    for (key, bits) in &a.h5 {
+        let other = &b.h5[key];
+        assert_eq!(bits.len(), other.len(), "{what}: {key} has another length");
+        if let Some(k) = (0..bits.len()).find(|&k| bits[k] != other[k]) {
+            panic!(
+                "{what}: {key} differs first at element {k}: {:e} vs {:e}",
+                f64::from_bits(bits[k]),
+                f64::from_bits(other[k])
+            );
+        }
+    }
+    for field in ["kinetic_energy", "max_overlap_ratio", "total_steps"] {
+        let (x, y) = (&a.summary[field], &b.summary[field]);
+        assert!(!x.is_null(), "summary.json has no {field}");
+        assert_eq!(x, y, "{what}: summary.json {field} differs");
+    }
+}
+
+#[test]
+fn thread_count_and_repetition_do_not_change_a_bit() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scene = write_scene(dir.path(), "determinism.toml", SCENE);
+    let one = run(&scene, &dir.path().join("t1"), 1);
+    let two = run(&scene, &dir.path().join("t2"), 2);
+    let again = run(&scene, &dir.path().join("t2-again"), 2);
+
+    // Not vacuous: more than one chunk of rows, several frames, real contacts.
+    let n = one.summary["particles"].as_u64().expect("particle count");
+    assert!(
+        n as usize > grainflow_systems::CHUNK,
+        "only {n} particles: the thread split is not exercised"
+    );
+    let frames = one.h5.keys().filter(|k| k.ends_with("/position")).count();
+    assert!(frames >= 10, "only {frames} frames written");
+    let overlap = one.summary["max_overlap_ratio"].as_f64().expect("overlap");
+    assert!(overlap > 1e-3, "hardly any contact in the run ({overlap})");
+    eprintln!("{n} particles, {frames} frames, largest overlap ratio {overlap:.3e}");
+
+    assert_identical(&one, &two, "--threads 1 against --threads 2");
+    assert_identical(&two, &again, "two runs with --threads 2");
+}
