@@ -255,9 +255,8 @@ fn run(args: RunArgs) -> ExitCode {
         let mut out = String::new();
         let rate = report.particle_steps / report.wall_seconds.max(1e-12);
         let sim_time = sim.world.resource::<grainflow_components::SimClock>().time;
-        let remaining = (sim.scene.simulation.end_time - sim_time).max(0.0);
-        let per_sim_second = report.wall_seconds / (report.steps as f64 * dt).max(1e-300);
-        let _ = writeln!(out,
+        let _ = writeln!(
+            out,
             "{} steps in {:.2} s: {:.3e} particle-steps/s ({:.3e} per core); {:.1} bytes/particle of state",
             report.steps,
             report.wall_seconds,
@@ -265,11 +264,15 @@ fn run(args: RunArgs) -> ExitCode {
             rate / threads as f64,
             sim.bytes_per_particle()
         );
-        if remaining > 0.0 && report.failure.is_none() {
-            let _ = writeln!(out,
-                "projected wall time to end_time = {} s: {:.0} s more at this rate (particle count may change)",
-                sim.scene.simulation.end_time,
-                remaining * per_sim_second
+        let end = sim.scene.simulation.end_time;
+        if sim_time < end && report.failure.is_none() {
+            let n_now = sim.world.resource::<grainflow_components::Particles>().len();
+            let ahead = sim.particle_steps_until(end, n_now);
+            let _ = writeln!(
+                out,
+                "projected wall time to end_time = {end} s: {:.0} s more ({:.3e} particle-steps, inflows included, at the measured rate)",
+                ahead / rate,
+                ahead
             );
         }
         emit(&out);

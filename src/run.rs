@@ -194,6 +194,38 @@ impl Simulation {
         }
     }
 
+    /// Particle-steps from now to simulated time `end`, with `n_now` particles present and
+    /// the scene's inflows adding theirs on schedule.
+    pub fn particle_steps_until(&self, end: f64, n_now: usize) -> f64 {
+        let clock = self.world.resource::<SimClock>();
+        let steps = ((end - clock.time) / clock.dt).max(0.0);
+        let inserted_at = |t: f64| -> f64 {
+            self.scene
+                .inflows
+                .iter()
+                .map(|f| {
+                    let t_in = t.min(f.stop.unwrap_or(f64::INFINITY)) - f.start;
+                    if t_in < 0.0 {
+                        0.0
+                    } else {
+                        (f.rate * (t_in + f.interval.unwrap_or(0.01))).min(f.total as f64)
+                    }
+                })
+                .sum()
+        };
+        // Midpoint rule over 1,000 slices of the remaining time.
+        let slices = 1000;
+        let now = inserted_at(clock.time);
+        (0..slices)
+            .map(|k| {
+                let t = clock.time + (k as f64 + 0.5) / slices as f64 * (end - clock.time);
+                n_now as f64 + (inserted_at(t) - now).max(0.0)
+            })
+            .sum::<f64>()
+            * steps
+            / slices as f64
+    }
+
     /// Memory held per particle by the per-particle blocks and the neighbour list, bytes.
     pub fn bytes_per_particle(&self) -> f64 {
         let p = self.world.resource::<Particles>();

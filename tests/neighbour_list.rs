@@ -76,9 +76,8 @@ fn scene(
          poisson_ratio = 0.3\nrestitution = 0.5\n"
     );
     if let Some((lo, hi)) = walls {
-        s += &format!(
-            "\n[[walls]]\ntype = \"box\"\nmaterial = \"m\"\nmin = {lo:?}\nmax = {hi:?}\n"
-        );
+        s +=
+            &format!("\n[[walls]]\ntype = \"box\"\nmaterial = \"m\"\nmin = {lo:?}\nmax = {hi:?}\n");
     }
     for p in spheres {
         s += &format!(

@@ -90,7 +90,10 @@ fn bad_scenes_exit_2_naming_file_and_field() {
         ),
         (
             "outside_walls.toml",
-            edited("position = [0.0, 0.0, 0.05]", "position = [0.0, 0.0, -0.05]"),
+            edited(
+                "position = [0.0, 0.0, 0.05]",
+                "position = [0.0, 0.0, -0.05]",
+            ),
             "spheres[0]",
         ),
         (
@@ -172,7 +175,12 @@ fn good_frictionless_scene_checks_and_shows_its_schedule() {
     assert_eq!(code, 0, "stdout:\n{stdout}\nstderr:\n{stderr}");
     assert!(!stdout.contains("warning"), "{stdout}");
     let names = schedule(&stdout);
-    for needed in ["verlet_list", "hertz_contact", "gear_predict", "gear_correct"] {
+    for needed in [
+        "verlet_list",
+        "hertz_contact",
+        "gear_predict",
+        "gear_correct",
+    ] {
         assert!(
             names.iter().any(|n| n == needed),
             "schedule lacks {needed}: {names:?}"

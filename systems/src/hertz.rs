@@ -7,7 +7,9 @@
 use std::ops::{Add, Div, Mul, Sub};
 
 use bevy_ecs::prelude::*;
-use grainflow_components::{Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls};
+use grainflow_components::{
+    Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
+};
 use rayon::prelude::*;
 use wide::{f64x4, CmpGt, CmpLt};
 
@@ -15,7 +17,9 @@ use crate::walls::wall_distance;
 use crate::CHUNK;
 
 /// The arithmetic of the contact formulas, for scalars and for SIMD lanes.
-pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> {
+pub trait Real:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+{
     fn sqrt(self) -> Self;
     fn splat(x: f64) -> Self;
 }
@@ -48,7 +52,13 @@ pub trait NormalDamping: Sync {
     /// Damping force for the pair's `coefficient`, elastic factor (4/3) E*
     /// `hertz_factor`, sqrt(R* delta) `sqrt_rd`, 1/m* `inv_mass_sum`, approach speed
     /// `delta_dot`.
-    fn damping<T: Real>(coefficient: T, hertz_factor: T, sqrt_rd: T, inv_mass_sum: T, delta_dot: T) -> T;
+    fn damping<T: Real>(
+        coefficient: T,
+        hertz_factor: T,
+        sqrt_rd: T,
+        inv_mass_sum: T,
+        delta_dot: T,
+    ) -> T;
     /// The pair's damping coefficient for this law.
     fn coefficient(p: &PairParams) -> f64;
 }
@@ -74,7 +84,13 @@ pub struct RestitutionDamping;
 
 impl NormalDamping for RestitutionDamping {
     #[inline(always)]
-    fn damping<T: Real>(factor: T, hertz_factor: T, sqrt_rd: T, inv_mass_sum: T, delta_dot: T) -> T {
+    fn damping<T: Real>(
+        factor: T,
+        hertz_factor: T,
+        sqrt_rd: T,
+        inv_mass_sum: T,
+        delta_dot: T,
+    ) -> T {
         factor * (T::splat(1.5) * hertz_factor * sqrt_rd / inv_mass_sum).sqrt() * delta_dot
     }
     fn coefficient(p: &PairParams) -> f64 {
@@ -98,7 +114,8 @@ pub fn hertz_normal_force<T: Real, D: NormalDamping>(
     delta_dot: T,
 ) -> T {
     let sqrt_rd = (r_eff * delta).sqrt();
-    hertz_factor * sqrt_rd * delta + D::damping(damping, hertz_factor, sqrt_rd, inv_mass_sum, delta_dot)
+    hertz_factor * sqrt_rd * delta
+        + D::damping(damping, hertz_factor, sqrt_rd, inv_mass_sum, delta_dot)
 }
 
 /// Pair parameter lookup; a scene with one material uses [`OneMaterial`], so the hot loop
@@ -126,7 +143,10 @@ impl PairTable for OneMaterial {
     }
     #[inline(always)]
     fn lanes<D: NormalDamping>(&self, _: u16, _: &[u16], _: &[usize; 4]) -> (f64x4, f64x4) {
-        (f64x4::splat(self.0.hertz_factor), f64x4::splat(D::coefficient(&self.0)))
+        (
+            f64x4::splat(self.0.hertz_factor),
+            f64x4::splat(D::coefficient(&self.0)),
+        )
     }
 }
 
@@ -183,7 +203,16 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
     table: &T,
     walls: Option<(&Walls, &WallList)>,
 ) -> (f64, u32) {
-    let Particles { position, velocity, radius, inv_mass, material, force, id, .. } = particles;
+    let Particles {
+        position,
+        velocity,
+        radius,
+        inv_mass,
+        material,
+        force,
+        id,
+        ..
+    } = particles;
     let [x, y, z] = &*position;
     let [vx, vy, vz] = &*velocity;
     let (r, inv_m, mat, id) = (&*radius, &*inv_mass, &*material, &*id);
@@ -191,8 +220,14 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
     let [fx, fy, fz] = force;
     let zero = f64x4::ZERO;
     // Lane masks of a group of 1, 2, 3 or 4 neighbours.
-    let row_mask = [1, 2, 3, 4].map(|n| f64x4::new([0, 1, 2, 3].map(|l| if l < n { 1.0 } else { 0.0 })).cmp_gt(f64x4::splat(0.5)));
-    (fx.par_chunks_mut(CHUNK), fy.par_chunks_mut(CHUNK), fz.par_chunks_mut(CHUNK))
+    let row_mask = [1, 2, 3, 4].map(|n| {
+        f64x4::new([0, 1, 2, 3].map(|l| if l < n { 1.0 } else { 0.0 })).cmp_gt(f64x4::splat(0.5))
+    });
+    (
+        fx.par_chunks_mut(CHUNK),
+        fy.par_chunks_mut(CHUNK),
+        fz.par_chunks_mut(CHUNK),
+    )
         .into_par_iter()
         .enumerate()
         .map(|(c, (fx, fy, fz))| {
@@ -200,8 +235,17 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
             let mut worst = (0.0f64, u32::MAX);
             for k in 0..fx.len() {
                 let i = base + k;
-                let (xi, yi, zi, ri) = (f64x4::splat(x[i]), f64x4::splat(y[i]), f64x4::splat(z[i]), r[i]);
-                let (vxi, vyi, vzi) = (f64x4::splat(vx[i]), f64x4::splat(vy[i]), f64x4::splat(vz[i]));
+                let (xi, yi, zi, ri) = (
+                    f64x4::splat(x[i]),
+                    f64x4::splat(y[i]),
+                    f64x4::splat(z[i]),
+                    r[i],
+                );
+                let (vxi, vyi, vzi) = (
+                    f64x4::splat(vx[i]),
+                    f64x4::splat(vy[i]),
+                    f64x4::splat(vz[i]),
+                );
                 let (inv_mi, mi) = (f64x4::splat(inv_m[i]), mat[i]);
                 let (mut sx, mut sy, mut sz, mut deepest) = (zero, zero, zero, zero);
                 for group in nbr[start[i] as usize..start[i + 1] as usize].chunks(4) {
@@ -212,7 +256,11 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
                     }
                     let (hf, damp) = table.lanes::<D>(mi, mat, &js);
                     let rj = gather(r, &js);
-                    let (dx, dy, dz) = (xi - gather(x, &js), yi - gather(y, &js), zi - gather(z, &js));
+                    let (dx, dy, dz) = (
+                        xi - gather(x, &js),
+                        yi - gather(y, &js),
+                        zi - gather(z, &js),
+                    );
                     let d2 = dx * dx + dy * dy + dz * dz;
                     let ri4 = f64x4::splat(ri);
                     let rs = ri4 + rj;
@@ -228,7 +276,9 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
                     let (nx, ny, nz) = (dx * inv_d, dy * inv_d, dz * inv_d);
                     let delta = rs - d;
                     let delta_dot = zero
-                        - ((vxi - gather(vx, &js)) * nx + (vyi - gather(vy, &js)) * ny + (vzi - gather(vz, &js)) * nz);
+                        - ((vxi - gather(vx, &js)) * nx
+                            + (vyi - gather(vy, &js)) * ny
+                            + (vzi - gather(vz, &js)) * nz);
                     let r_eff = ri4 * rj * (q * d);
                     let inv_mass_sum = inv_mi + gather(inv_m, &js);
                     let f = hertz_normal_force::<f64x4, D>(
@@ -285,5 +335,14 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
             }
             worst
         })
-        .reduce(|| (0.0, u32::MAX), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a })
+        .reduce(
+            || (0.0, u32::MAX),
+            |a, b| {
+                if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+                    b
+                } else {
+                    a
+                }
+            },
+        )
 }
