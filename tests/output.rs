@@ -1,0 +1,130 @@
+//! Output files a user opens: particles.h5 (one group per frame, rows by stable id, the
+//! `time` attribute), the particles.xdmf sidecar whose every data path exists in the HDF5
+//! file, summary.json, the Chrome trace with a span per system, and particles read from a
+//! LAMMPS `atom_style sphere` data file.
+use std::path::Path;
+
+mod common;
+
+const SCENE: &str = r#"
+[simulation]
+dt = 1.0e-5
+end_time = 0.002
+gravity = [0.0, 0.0, -9.81]
+output_interval = 0.0005
+[[materials]]
+name = "glass"
+density = 2500.0
+youngs_modulus = 1.0e7
+poisson_ratio = 0.25
+restitution = 0.8
+[[walls]]
+type = "box"
+material = "glass"
+min = [0.0, 0.0, 0.0]
+max = [0.02, 0.02, 0.02]
+[[lammps]]
+file = "atoms.data"
+material = "glass"
+"#;
+
+const DATA: &str = "LAMMPS data file via write_data
+
+3 atoms
+1 atom types
+
+0 0.02 xlo xhi
+0 0.02 ylo yhi
+0 0.02 zlo zhi
+
+Atoms # sphere
+
+3 1 0.002 2500 0.015 0.01 0.01 0 0 0
+1 1 0.002 2500 0.005 0.01 0.01 0 0 0
+2 1 0.004 2500 0.010 0.01 0.005 0 0 0
+
+Velocities
+
+1 0.1 0 0 0 0 0
+2 0 0 -0.2 0 0 0
+3 -0.1 0 0 0 0 0.5
+";
+
+#[test]
+fn h5_xdmf_summary_and_trace_are_consistent() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::write_scene(dir.path(), "out.toml", SCENE);
+    std::fs::write(dir.path().join("atoms.data"), DATA).unwrap();
+    let out = dir.path().join("run");
+    let trace = dir.path().join("trace.json");
+    let (code, _, err) = common::run_cli(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--threads",
+        "1",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+
+    let file = hdf5::File::open(out.join("particles.h5")).unwrap();
+    let mut groups = file.member_names().unwrap();
+    groups.sort();
+    // t = 0, then every 0.5 ms to 2 ms: five frames.
+    assert_eq!(groups, ["step_00000000", "step_00000050", "step_00000100", "step_00000150", "step_00000200"]);
+    let first = file.group("step_00000000").unwrap();
+    let time: f64 = first.attr("time").unwrap().read_scalar().unwrap();
+    assert_eq!(time, 0.0);
+    let ids: Vec<u32> = first.dataset("id").unwrap().read_raw().unwrap();
+    assert_eq!(ids, [0, 1, 2], "rows in stable id order");
+    // Ids follow the LAMMPS ids in order: LAMMPS atom 1 is particle 0.
+    let pos: Vec<f64> = first.dataset("position").unwrap().read_raw().unwrap();
+    assert_eq!(&pos[0..3], &[0.005, 0.01, 0.01]);
+    assert_eq!(&pos[6..9], &[0.015, 0.01, 0.01]);
+    let radius: Vec<f64> = first.dataset("radius").unwrap().read_raw().unwrap();
+    assert_eq!(radius, [0.001, 0.002, 0.001]);
+    let vel: Vec<f64> = first.dataset("velocity").unwrap().read_raw().unwrap();
+    assert_eq!(&vel[3..6], &[0.0, 0.0, -0.2]);
+    let omega: Vec<f64> = first.dataset("angular_velocity").unwrap().read_raw().unwrap();
+    assert_eq!(omega[8], 0.5);
+    let last = file.group("step_00000200").unwrap();
+    let t_last: f64 = last.attr("time").unwrap().read_scalar().unwrap();
+    assert!((t_last - 0.002).abs() < 1e-12);
+
+    // Every HDF path in the XDMF sidecar exists.
+    let xdmf = std::fs::read_to_string(out.join("particles.xdmf")).unwrap();
+    let mut paths = 0;
+    for item in xdmf.split("particles.h5:").skip(1) {
+        let path = item.split('<').next().unwrap();
+        assert!(file.dataset(path).is_ok(), "xdmf references {path}, missing in particles.h5");
+        paths += 1;
+    }
+    assert_eq!(paths, 5 * 5, "five datasets per frame");
+    assert_eq!(xdmf.matches("<Time Value=").count(), 5);
+
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "completed");
+    assert_eq!(summary["steps"], 200);
+    assert_eq!(summary["particles"], 3);
+    assert!(summary["particle_steps_per_s"].as_f64().unwrap() > 0.0);
+
+    let trace = std::fs::read_to_string(&trace).unwrap();
+    for system in ["gear_predict", "verlet_list", "hertz_contact", "gear_correct", "stability_monitor"] {
+        assert!(trace.contains(system), "trace has a span for {system}");
+    }
+}
+
+#[test]
+fn lammps_data_errors_name_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = DATA.replace("2 1 0.004 2500", "2 1 -0.004 2500");
+    std::fs::write(dir.path().join("atoms.data"), bad).unwrap();
+    let scene = common::write_scene(dir.path(), "bad.toml", SCENE);
+    let (code, _, err) = common::run_cli(&["check", scene.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("lammps[0].file") && err.contains("diameter"), "{err}");
+    let parsed = grainflow::lammps::read_data(Path::new("/nonexistent.data"));
+    assert!(parsed.is_err());
+}

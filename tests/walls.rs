@@ -1,0 +1,88 @@
+//! Wall geometry and wall events: the distance and normal from a sphere centre to a plane,
+//! a cylinder and a cone (closest point on the meridian segment, checked against the
+//! geometry worked out by hand), and the removal of the outlet plate at its time.
+use std::f64::consts::SQRT_2;
+
+use grainflow_components::WallShape;
+use grainflow_systems::walls::{wall_contains, wall_distance};
+
+mod common;
+
+fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
+    (0..3).all(|d| (a[d] - b[d]).abs() < tol)
+}
+
+#[test]
+fn plane_distance_is_signed_along_the_normal() {
+    let plane = WallShape::Plane { point: [0.0, 0.0, 1.0], normal: [0.0, 0.0, 1.0] };
+    let (d, n) = wall_distance(&plane, [3.0, -2.0, 1.25]);
+    assert!((d - 0.25).abs() < 1e-15 && n == [0.0, 0.0, 1.0]);
+    assert!((wall_distance(&plane, [0.0, 0.0, 0.5]).0 + 0.5).abs() < 1e-15);
+    assert_eq!(wall_contains(&plane, [0.0, 0.0, 0.5]), Some(false));
+}
+
+#[test]
+fn cylinder_distance_is_radial_inside_and_past_the_ends() {
+    // Axis z through (1, 2), radius 0.5, from z = 0 to z = 2.
+    let cyl = WallShape::Revolution { origin: [1.0, 2.0, 0.0], axis: [0.0, 0.0, 1.0], r0: 0.5, h0: 0.0, r1: 0.5, h1: 2.0 };
+    let (d, n) = wall_distance(&cyl, [1.3, 2.0, 1.0]);
+    assert!((d - 0.2).abs() < 1e-14, "{d}");
+    assert!(close(n, [-1.0, 0.0, 0.0], 1e-14), "{n:?}");
+    // Above the top rim: the closest point is the rim itself.
+    let (d, _) = wall_distance(&cyl, [1.0, 2.5, 2.3]);
+    assert!((d - 0.3).abs() < 1e-14, "{d}");
+    assert_eq!(wall_contains(&cyl, [1.2, 2.0, 1.0]), Some(true));
+    assert_eq!(wall_contains(&cyl, [1.6, 2.0, 1.0]), Some(false));
+    assert_eq!(wall_contains(&cyl, [1.6, 2.0, 3.0]), None);
+}
+
+#[test]
+fn cone_distance_is_perpendicular_to_the_45_degree_meridian() {
+    // The benchmark hopper cone: radius 0.2 at z = 0 to 1.25 at z = 1.05 (45 degrees).
+    let cone = WallShape::Revolution { origin: [0.0; 3], axis: [0.0, 0.0, 1.0], r0: 0.2, h0: 0.0, r1: 1.25, h1: 1.05 };
+    // A point on the axis-plane y = 0 at (x, z) = (0.5, 0.5): wall radius there is 0.7, so
+    // the point is 0.2 inside horizontally and 0.2 / sqrt(2) from the 45-degree line.
+    let (d, n) = wall_distance(&cone, [0.5, 0.0, 0.5]);
+    assert!((d - 0.2 / SQRT_2).abs() < 1e-14, "{d}");
+    assert!(close(n, [-1.0 / SQRT_2, 0.0, 1.0 / SQRT_2], 1e-14), "{n:?}");
+    // Same point rotated about the axis: same distance.
+    let (d2, _) = wall_distance(&cone, [0.0, 0.5, 0.5]);
+    assert!((d2 - d).abs() < 1e-14);
+    assert_eq!(wall_contains(&cone, [0.5, 0.0, 0.5]), Some(true));
+    assert_eq!(wall_contains(&cone, [0.75, 0.0, 0.5]), Some(false));
+}
+
+#[test]
+fn outlet_plate_removed_at_its_time_lets_the_sphere_fall() {
+    let scene = r#"
+[simulation]
+dt = 1.0e-5
+end_time = 1.0
+gravity = [0.0, 0.0, -9.81]
+[[materials]]
+name = "steel"
+density = 7800.0
+youngs_modulus = 2.0e8
+poisson_ratio = 0.3
+restitution = 0.3
+[[walls]]
+type = "plane"
+material = "steel"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+remove_at = 0.05
+[[spheres]]
+material = "steel"
+radius = 0.005
+position = [0.0, 0.0, 0.0051]
+"#;
+    let mut sim = common::simulation(scene, "plate.toml");
+    sim.run(4900);
+    let z_rest = common::position(&sim, 0)[2];
+    assert!(z_rest > 0.0049, "held by the plate before t = 0.05 s: z = {z_rest}");
+    sim.run(5100);
+    // After removal at 0.05 s the sphere falls freely for about 0.05 s: z drops by g t^2 / 2.
+    let z = common::position(&sim, 0)[2];
+    let expected = z_rest - 0.5 * 9.81 * 0.05f64.powi(2);
+    assert!((z - expected).abs() < 2e-4, "free fall after the plate is gone: z = {z}, expected {expected}");
+}
