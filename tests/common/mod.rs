@@ -315,15 +315,6 @@ impl ImpactScene {
             velocity(sim, 0)[0] - velocity(sim, 1)[0]
         }
     }
-
-    /// Build the scene with `dt` and the surfaces 20 steps of travel apart, and step it
-    /// through the contact.
-    pub fn run(&self, integrator: &str, dt: f64) -> (Simulation, Impact) {
-        let gap = 20.0 * dt * self.approach_speed();
-        let mut sim = simulation(&self.toml(integrator, dt, gap), "impact.toml");
-        let impact = step_through_contact(&mut sim, |s| self.gap(s), 1_000_000);
-        (sim, impact)
-    }
 }
 
 /// What `step_through_contact` saw.
@@ -372,12 +363,12 @@ pub fn step_through_contact(
             end = Some(t_cross);
         }
         previous = g;
-        if end.is_some() {
+        if let (Some(start), Some(end)) = (start, end) {
             after += 1;
             if after == 200 {
                 return Impact {
-                    start: start.expect("start before end"),
-                    end: end.expect("end"),
+                    start,
+                    end,
                     max_overlap,
                     max_overlap_ratio: max_ratio,
                 };
