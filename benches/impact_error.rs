@@ -33,12 +33,24 @@ fn hertz() -> (f64, f64) {
     let v_rel = 2.0 * V;
     let d_max = (15.0 * m_eff * v_rel * v_rel / (16.0 * e_star * r_eff.sqrt())).powf(0.4);
     // x = 1 - u^2 removes the end-point singularity; Simpson's rule on the smooth rest.
-    let f = |u: f64| if u == 0.0 { 2.0 / 2.5f64.sqrt() } else { 2.0 * u / (1.0 - (1.0 - u * u).powf(2.5)).sqrt() };
+    let f = |u: f64| {
+        if u == 0.0 {
+            2.0 / 2.5f64.sqrt()
+        } else {
+            2.0 * u / (1.0 - (1.0 - u * u).powf(2.5)).sqrt()
+        }
+    };
     let n = 20_000;
     let h = 1.0 / n as f64;
     let integral = (0..=n)
         .map(|k| {
-            let w = if k == 0 || k == n { 1.0 } else if k % 2 == 1 { 4.0 } else { 2.0 };
+            let w = if k == 0 || k == n {
+                1.0
+            } else if k % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
             w * f(k as f64 * h)
         })
         .sum::<f64>()
@@ -85,11 +97,19 @@ velocity = [-{V}, 0.0, 0.0]
         x1 = R + gap0 / 2.0
     );
     let path = Path::new("impact.toml");
-    let mut sim = Simulation::new(grainflow::scene::parse(&scene, path, &[]).unwrap(), path, None).unwrap();
+    let mut sim = Simulation::new(
+        grainflow::scene::parse(&scene, path, &[]).unwrap(),
+        path,
+        None,
+    )
+    .unwrap();
     let state = |sim: &Simulation| {
         let p = sim.world.resource::<Particles>();
         let (a, b) = if p.id[0] == 0 { (0, 1) } else { (1, 0) };
-        (p.position[0][b] - p.position[0][a] - 2.0 * R, p.velocity[0][b] - p.velocity[0][a])
+        (
+            p.position[0][b] - p.position[0][a] - 2.0 * R,
+            p.velocity[0][b] - p.velocity[0][a],
+        )
     };
     let t0 = Instant::now();
     sim.start();
@@ -115,7 +135,9 @@ velocity = [-{V}, 0.0, 0.0]
         sim.step();
     }
     // Deepest overlap by a parabola through the three samples around the minimum gap.
-    let k = (1..gaps.len() - 1).min_by(|&a, &b| gaps[a].total_cmp(&gaps[b])).unwrap();
+    let k = (1..gaps.len() - 1)
+        .min_by(|&a, &b| gaps[a].total_cmp(&gaps[b]))
+        .unwrap();
     let (g0, g1, g2) = (gaps[k - 1], gaps[k], gaps[k + 1]);
     let curvature = g0 - 2.0 * g1 + g2;
     let g_min = g1 - (g2 - g0).powi(2) / (8.0 * curvature);
@@ -129,11 +151,14 @@ velocity = [-{V}, 0.0, 0.0]
 
 fn main() {
     let (t_c, d_max) = hertz();
-    println!("Head-on glass impact (Chung & Ooi 2011 test 1): t_c = {:.4e} s, delta_max = {:.4e} m", t_c, d_max);
+    println!(
+        "Head-on glass impact (Chung & Ooi 2011 test 1): t_c = {:.4e} s, delta_max = {:.4e} m",
+        t_c, d_max
+    );
     println!("| integrator | t_c/dt | err t_c | err delta_max | err e (e = 0.5) | hopper wall s per simulated s |");
     println!("|---|---|---|---|---|---|");
     for (integrator, rate) in THROUGHPUT {
-        for n in [10.0, 20.0, 40.0, 80.0, 160.0] {
+        for n in [10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0, 1280.0] {
             let dt = t_c / n;
             let elastic = impact(integrator, "normal_damping = 0.0", dt, t_c);
             let damped = impact(integrator, "restitution = 0.5", dt, t_c);

@@ -278,6 +278,9 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         }
         crate::scene::IntegratorName::VelocityVerlet => {
             world.insert_resource(IntegratorKind::VelocityVerlet);
+            let mut state = VerletState::default();
+            state.resize_rows(particles.len());
+            world.insert_resource(state);
         }
     }
     if !scene.inflows.is_empty() {

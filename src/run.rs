@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    GearState, Materials, Particles, PerParticle, RunHealth, SimClock, VerletList,
+    GearState, Materials, Particles, PerParticle, RunHealth, SimClock, VerletList, VerletState,
 };
 use grainflow_systems::schedule::Slot;
 use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
@@ -233,6 +233,9 @@ impl Simulation {
         let mut rows = p.bytes_per_row() as f64;
         if let Some(g) = self.world.get_resource::<GearState>() {
             rows += g.bytes_per_row() as f64;
+        }
+        if let Some(v) = self.world.get_resource::<VerletState>() {
+            rows += v.bytes_per_row() as f64;
         }
         let list = self.world.resource::<VerletList>();
         let list_bytes = (list.neighbours.capacity() * 4 + list.start.capacity() * 4) as f64

@@ -62,12 +62,19 @@ fn inflow_follows_its_rate_and_places_without_overlap() {
     let large = p.radius.iter().filter(|&&r| r == 0.0015).count();
     assert_eq!(small + large, 900, "radii come from the table");
     // Binomial(900, 0.5): 5 standard deviations = 75.
-    assert!((small as f64 - 450.0).abs() < 75.0, "number fractions 50/50: {small} small, {large} large");
+    assert!(
+        (small as f64 - 450.0).abs() < 75.0,
+        "number fractions 50/50: {small} small, {large} large"
+    );
     for i in 0..p.len() {
         for d in 0..3 {
             let x = p.position[d][i];
             let hi = [0.05, 0.05, 0.2][d];
-            assert!(x > p.radius[i] * 0.8 && x < hi - p.radius[i] * 0.8, "particle {} inside the box", p.id[i]);
+            assert!(
+                x > p.radius[i] * 0.8 && x < hi - p.radius[i] * 0.8,
+                "particle {} inside the box",
+                p.id[i]
+            );
         }
     }
 }

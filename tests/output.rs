@@ -73,7 +73,16 @@ fn h5_xdmf_summary_and_trace_are_consistent() {
     let mut groups = file.member_names().unwrap();
     groups.sort();
     // t = 0, then every 0.5 ms to 2 ms: five frames.
-    assert_eq!(groups, ["step_00000000", "step_00000050", "step_00000100", "step_00000150", "step_00000200"]);
+    assert_eq!(
+        groups,
+        [
+            "step_00000000",
+            "step_00000050",
+            "step_00000100",
+            "step_00000150",
+            "step_00000200"
+        ]
+    );
     let first = file.group("step_00000000").unwrap();
     let time: f64 = first.attr("time").unwrap().read_scalar().unwrap();
     assert_eq!(time, 0.0);
@@ -87,7 +96,11 @@ fn h5_xdmf_summary_and_trace_are_consistent() {
     assert_eq!(radius, [0.001, 0.002, 0.001]);
     let vel: Vec<f64> = first.dataset("velocity").unwrap().read_raw().unwrap();
     assert_eq!(&vel[3..6], &[0.0, 0.0, -0.2]);
-    let omega: Vec<f64> = first.dataset("angular_velocity").unwrap().read_raw().unwrap();
+    let omega: Vec<f64> = first
+        .dataset("angular_velocity")
+        .unwrap()
+        .read_raw()
+        .unwrap();
     assert_eq!(omega[8], 0.5);
     let last = file.group("step_00000200").unwrap();
     let t_last: f64 = last.attr("time").unwrap().read_scalar().unwrap();
@@ -98,20 +111,30 @@ fn h5_xdmf_summary_and_trace_are_consistent() {
     let mut paths = 0;
     for item in xdmf.split("particles.h5:").skip(1) {
         let path = item.split('<').next().unwrap();
-        assert!(file.dataset(path).is_ok(), "xdmf references {path}, missing in particles.h5");
+        assert!(
+            file.dataset(path).is_ok(),
+            "xdmf references {path}, missing in particles.h5"
+        );
         paths += 1;
     }
     assert_eq!(paths, 5 * 5, "five datasets per frame");
     assert_eq!(xdmf.matches("<Time Value=").count(), 5);
 
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["status"], "completed");
     assert_eq!(summary["steps"], 200);
     assert_eq!(summary["particles"], 3);
     assert!(summary["particle_steps_per_s"].as_f64().unwrap() > 0.0);
 
     let trace = std::fs::read_to_string(&trace).unwrap();
-    for system in ["gear_predict", "verlet_list", "hertz_contact", "gear_correct", "stability_monitor"] {
+    for system in [
+        "gear_predict",
+        "verlet_list",
+        "hertz_contact",
+        "gear_correct",
+        "stability_monitor",
+    ] {
         assert!(trace.contains(system), "trace has a span for {system}");
     }
 }
@@ -124,7 +147,10 @@ fn lammps_data_errors_name_the_line() {
     let scene = common::write_scene(dir.path(), "bad.toml", SCENE);
     let (code, _, err) = common::run_cli(&["check", scene.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("lammps[0].file") && err.contains("diameter"), "{err}");
+    assert!(
+        err.contains("lammps[0].file") && err.contains("diameter"),
+        "{err}"
+    );
     let parsed = grainflow::lammps::read_data(Path::new("/nonexistent.data"));
     assert!(parsed.is_err());
 }

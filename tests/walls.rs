@@ -14,7 +14,10 @@ fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
 
 #[test]
 fn plane_distance_is_signed_along_the_normal() {
-    let plane = WallShape::Plane { point: [0.0, 0.0, 1.0], normal: [0.0, 0.0, 1.0] };
+    let plane = WallShape::Plane {
+        point: [0.0, 0.0, 1.0],
+        normal: [0.0, 0.0, 1.0],
+    };
     let (d, n) = wall_distance(&plane, [3.0, -2.0, 1.25]);
     assert!((d - 0.25).abs() < 1e-15 && n == [0.0, 0.0, 1.0]);
     assert!((wall_distance(&plane, [0.0, 0.0, 0.5]).0 + 0.5).abs() < 1e-15);
@@ -24,7 +27,14 @@ fn plane_distance_is_signed_along_the_normal() {
 #[test]
 fn cylinder_distance_is_radial_inside_and_past_the_ends() {
     // Axis z through (1, 2), radius 0.5, from z = 0 to z = 2.
-    let cyl = WallShape::Revolution { origin: [1.0, 2.0, 0.0], axis: [0.0, 0.0, 1.0], r0: 0.5, h0: 0.0, r1: 0.5, h1: 2.0 };
+    let cyl = WallShape::Revolution {
+        origin: [1.0, 2.0, 0.0],
+        axis: [0.0, 0.0, 1.0],
+        r0: 0.5,
+        h0: 0.0,
+        r1: 0.5,
+        h1: 2.0,
+    };
     let (d, n) = wall_distance(&cyl, [1.3, 2.0, 1.0]);
     assert!((d - 0.2).abs() < 1e-14, "{d}");
     assert!(close(n, [-1.0, 0.0, 0.0], 1e-14), "{n:?}");
@@ -39,7 +49,14 @@ fn cylinder_distance_is_radial_inside_and_past_the_ends() {
 #[test]
 fn cone_distance_is_perpendicular_to_the_45_degree_meridian() {
     // The benchmark hopper cone: radius 0.2 at z = 0 to 1.25 at z = 1.05 (45 degrees).
-    let cone = WallShape::Revolution { origin: [0.0; 3], axis: [0.0, 0.0, 1.0], r0: 0.2, h0: 0.0, r1: 1.25, h1: 1.05 };
+    let cone = WallShape::Revolution {
+        origin: [0.0; 3],
+        axis: [0.0, 0.0, 1.0],
+        r0: 0.2,
+        h0: 0.0,
+        r1: 1.25,
+        h1: 1.05,
+    };
     // A point on the axis-plane y = 0 at (x, z) = (0.5, 0.5): wall radius there is 0.7, so
     // the point is 0.2 inside horizontally and 0.2 / sqrt(2) from the 45-degree line.
     let (d, n) = wall_distance(&cone, [0.5, 0.0, 0.5]);
@@ -79,10 +96,16 @@ position = [0.0, 0.0, 0.0051]
     let mut sim = common::simulation(scene, "plate.toml");
     sim.run(4900);
     let z_rest = common::position(&sim, 0)[2];
-    assert!(z_rest > 0.0049, "held by the plate before t = 0.05 s: z = {z_rest}");
+    assert!(
+        z_rest > 0.0049,
+        "held by the plate before t = 0.05 s: z = {z_rest}"
+    );
     sim.run(5100);
     // After removal at 0.05 s the sphere falls freely for about 0.05 s: z drops by g t^2 / 2.
     let z = common::position(&sim, 0)[2];
     let expected = z_rest - 0.5 * 9.81 * 0.05f64.powi(2);
-    assert!((z - expected).abs() < 2e-4, "free fall after the plate is gone: z = {z}, expected {expected}");
+    assert!(
+        (z - expected).abs() < 2e-4,
+        "free fall after the plate is gone: z = {z}, expected {expected}"
+    );
 }

@@ -49,3 +49,28 @@ impl PerParticle for GearState {
         9 * 8
     }
 }
+
+/// The half-step velocity v(t + dt/2) kept by velocity Verlet between its predictor and
+/// corrector, one row per particle; meanwhile `Particles::velocity` holds the estimate of
+/// v(t + dt) used by velocity-dependent (damping) forces. Allocated only when the scene
+/// uses velocity Verlet.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct VerletState {
+    pub half_velocity: Columns,
+}
+
+impl PerParticle for VerletState {
+    fn resize_rows(&mut self, n: usize) {
+        for col in self.half_velocity.iter_mut() {
+            col.resize(n, 0.0);
+        }
+    }
+    fn permute_rows(&mut self, perm: &[u32]) {
+        for col in self.half_velocity.iter_mut() {
+            crate::particles::permute_column(col, perm);
+        }
+    }
+    fn bytes_per_row(&self) -> usize {
+        3 * 8
+    }
+}

@@ -18,7 +18,7 @@ pub mod walls;
 pub use clock::SimClock;
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
-pub use integrator::{GearState, IntegratorKind};
+pub use integrator::{GearState, IntegratorKind, VerletState};
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
 pub use neighbour::{ContactHistory, NeighbourSettings, Reorder, VerletList, WallList};
 pub use particles::{Particles, PerParticle};

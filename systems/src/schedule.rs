@@ -21,7 +21,7 @@
 //! means one file with its systems and one line in [`REGISTRY`].
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
-use grainflow_components::{GearState, IntegratorKind, Walls};
+use grainflow_components::{GearState, IntegratorKind, VerletState, Walls};
 
 use crate::{gear, hertz, inflow, monitor, neighbour_list, rows, verlet, walls};
 
@@ -129,6 +129,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "sync_rows<VerletState>",
+        set: StepSet::SyncRows,
+        phase: Phase::Both,
+        wanted: uses_verlet,
+        add: |s, set| {
+            s.add_systems(rows::sync_rows::<VerletState>.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "gear_predict",
         set: StepSet::Predict,
         phase: Phase::Step,
@@ -171,6 +180,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: uses_gear,
         add: |s, set| {
             s.add_systems(rows::permute_rows::<GearState>.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "permute_rows<VerletState>",
+        set: StepSet::Reorder,
+        phase: Phase::Both,
+        wanted: uses_verlet,
+        add: |s, set| {
+            s.add_systems(rows::permute_rows::<VerletState>.in_set(set));
         },
     },
     SystemEntry {
