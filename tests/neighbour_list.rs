@@ -95,15 +95,15 @@ fn scene(
     s
 }
 
-/// Row `i` of the list, sorted.
+/// All partners of particle `i` (its own row and the pairs it is partner in), sorted.
 fn row(list: &VerletList, i: usize) -> Vec<u32> {
-    let mut r = list.neighbours[list.start[i] as usize..list.start[i + 1] as usize].to_vec();
+    let mut r: Vec<u32> = list.partners(i).collect();
     r.sort_unstable();
     r
 }
 
 /// Check the list of the current state against brute force. Returns the number of list
-/// entries (twice the pairs) and of pairs in contact.
+/// pairs and of pairs in contact.
 fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
     let p = sim.world.resource::<Particles>();
     let list = sim.world.resource::<VerletList>();
@@ -111,6 +111,26 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
     let n = p.len();
     assert_eq!(list.start.len(), n + 1, "one row per particle");
     assert_eq!(list.start[n] as usize, list.neighbours.len());
+    // A half list: each pair once, in the row of its lower row index; owner and reverse
+    // index consistent with the rows.
+    assert_eq!(list.owner.len(), list.pairs());
+    assert_eq!(list.rev_start.len(), n + 1);
+    assert_eq!(list.rev_pairs.len(), list.pairs());
+    for i in 0..n {
+        for k in list.start[i] as usize..list.start[i + 1] as usize {
+            assert_eq!(list.owner[k] as usize, i, "owner of pair {k}");
+            assert!(
+                list.neighbours[k] as usize > i,
+                "pair {k} is stored in the row of its lower index"
+            );
+        }
+        for &k in &list.rev_pairs[list.rev_start[i] as usize..list.rev_start[i + 1] as usize] {
+            assert_eq!(
+                list.neighbours[k as usize] as usize, i,
+                "reverse index of particle {i}"
+            );
+        }
+    }
     // Ids: a permutation of 0..n, each keeping its radius.
     let mut ids = p.id.clone();
     ids.sort_unstable();
@@ -185,12 +205,11 @@ fn static_set(spheres: &[Sphere], skin: Option<f64>) {
     let radius_of_id: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
     let mut sim = simulation(&scene(spheres, None, 0.0, skin, 2e-6), "static.toml");
     sim.step();
-    let (entries, _) = check_list(&sim, &radius_of_id);
+    let (pairs, _) = check_list(&sim, &radius_of_id);
     // At least one neighbour per particle on average, for a meaningful comparison.
     assert!(
-        entries >= spheres.len(),
-        "too few pairs ({}) for a meaningful check",
-        entries / 2
+        2 * pairs >= spheres.len(),
+        "too few pairs ({pairs}) for a meaningful check"
     );
 }
 
@@ -268,7 +287,7 @@ fn falling_block_through_many_rebuilds() {
          contacts",
         list.builds,
         list.sorts,
-        list.neighbours.len() / 2,
+        list.pairs(),
         most_contacts
     );
     assert!(

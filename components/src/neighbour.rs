@@ -11,14 +11,19 @@ pub struct NeighbourSettings {
     pub sort_every: u32,
 }
 
-/// Full Verlet neighbour list in compressed rows: the neighbours of particle `i` are
-/// `neighbours[start[i]..start[i+1]]`, in cell order. Every pair appears twice (i in j's
-/// row and j in i's), so each particle sums its own forces in a fixed order and no two
-/// threads ever write the same particle.
+/// Half Verlet neighbour list: every pair within `r_i + r_j + skin` once, in the row of
+/// its lower row index. The pairs of row `i` are `k` in `start[i]..start[i+1]`, with
+/// partner `neighbours[k]` (> i) and owner `owner[k]` (= i), in cell order. The reverse
+/// index lists, for each particle, the pairs in which it is the partner:
+/// `rev_pairs[rev_start[p]..rev_start[p+1]]`, ascending. With it, every particle sums the
+/// forces of all its pairs itself, in a fixed order, while each pair force is computed once.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct VerletList {
     pub start: Vec<u32>,
     pub neighbours: Vec<u32>,
+    pub owner: Vec<u32>,
+    pub rev_start: Vec<u32>,
+    pub rev_pairs: Vec<u32>,
     /// Positions at the last rebuild.
     pub reference: Columns,
     /// Set by systems that change the particle set (insertion) to force a rebuild.
@@ -27,6 +32,23 @@ pub struct VerletList {
     pub sorts: u64,
     /// Largest radius present at the last rebuild.
     pub max_radius: f64,
+}
+
+impl VerletList {
+    /// Number of listed pairs.
+    pub fn pairs(&self) -> usize {
+        self.neighbours.len()
+    }
+
+    /// All partners of particle `i`: its own row, then the owners of the pairs it is
+    /// partner in.
+    pub fn partners(&self, i: usize) -> impl Iterator<Item = u32> + '_ {
+        let fwd = &self.neighbours[self.start[i] as usize..self.start[i + 1] as usize];
+        let rev = &self.rev_pairs[self.rev_start[i] as usize..self.rev_start[i + 1] as usize];
+        fwd.iter()
+            .copied()
+            .chain(rev.iter().map(|&k| self.owner[k as usize]))
+    }
 }
 
 /// A permutation of the particle rows applied this step (`new row k = old row perm[k]`),
@@ -49,9 +71,11 @@ pub struct WallList {
 
 /// The contact store: per-pair history (the tangential spring of a friction model, the
 /// contact state of an adhesion model) kept beside the Verlet list, `width` values per
-/// list entry: entry `k` of the list owns `values[k * width..(k + 1) * width]`. Pairs are
-/// keyed by the particles' stable ids, so at every rebuild and re-sort the history of a
-/// pair that is still listed moves to its new entry; a pair that left the list loses it.
+/// pair: pair `k` of the list owns `values[k * width..(k + 1) * width]`. Pairs are keyed
+/// by the particles' stable ids, so at every rebuild and re-sort the history of a pair that
+/// is still listed moves to its new place; a pair that left the list loses it. Values are
+/// kept for the pair oriented from the lower to the higher stable id, whichever particle
+/// owns the pair's row (a model flips directed values when `id[owner] > id[partner]`).
 /// Present only when a model needs it.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct ContactHistory {

@@ -1,9 +1,7 @@
 //! Hertz normal contact with damping (Hertz 1896), between particles and with walls.
 //!
-//! The pair loop runs four neighbours at a time in `wide::f64x4` lanes (gathered from the
-//! structure-of-arrays columns), with no branch on contact: lanes out of contact are
-//! masked. Each particle sums its own force in a fixed order (lane by lane, then
-//! lanes 0+1+2+3), so results do not depend on the thread count.
+//! The pair pass runs four pairs at a time in `wide::f64x4` lanes, with no branch on
+//! contact: lanes out of contact are masked.
 use std::ops::{Add, Div, Mul, Sub};
 
 use bevy_ecs::prelude::*;
@@ -11,7 +9,7 @@ use grainflow_components::{
     Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
 };
 use rayon::prelude::*;
-use wide::{f64x4, CmpGt, CmpLt};
+use wide::{f64x4, CmpLt};
 
 use crate::walls::wall_distance;
 use crate::CHUNK;
@@ -122,11 +120,15 @@ pub fn hertz_normal_force<T: Real, D: NormalDamping>(
 /// does no table gather.
 trait PairTable: Sync {
     fn get(&self, a: u16, b: u16) -> &PairParams;
-    /// (4/3) E* and the damping coefficient of particle material `a` with the particles
-    /// `js`, as lanes.
+    /// (4/3) E* and the damping coefficient of the particle pairs (`is`, `js`), as lanes.
     #[inline(always)]
-    fn lanes<D: NormalDamping>(&self, a: u16, mat: &[u16], js: &[usize; 4]) -> (f64x4, f64x4) {
-        let p = js.map(|j| self.get(a, mat[j]));
+    fn lanes<D: NormalDamping>(
+        &self,
+        is: &[usize; 4],
+        js: &[usize; 4],
+        mat: &[u16],
+    ) -> (f64x4, f64x4) {
+        let p = [0, 1, 2, 3].map(|l| self.get(mat[is[l]], mat[js[l]]));
         (
             f64x4::new(p.map(|p| p.hertz_factor)),
             f64x4::new(p.map(D::coefficient)),
@@ -142,7 +144,7 @@ impl PairTable for OneMaterial {
         &self.0
     }
     #[inline(always)]
-    fn lanes<D: NormalDamping>(&self, _: u16, _: &[u16], _: &[usize; 4]) -> (f64x4, f64x4) {
+    fn lanes<D: NormalDamping>(&self, _: &[usize; 4], _: &[usize; 4], _: &[u16]) -> (f64x4, f64x4) {
         (
             f64x4::splat(self.0.hertz_factor),
             f64x4::splat(D::coefficient(&self.0)),
@@ -157,9 +159,17 @@ impl PairTable for Materials {
     }
 }
 
-/// Contact forces of this step: every particle sums its pair forces over its row of the
-/// Verlet list, then its wall forces. Also finds the largest overlap ratio for the monitor.
+/// Contact forces of this step, in two passes over the half Verlet list:
+/// 1. every listed pair once: the Hertz force magnitude over the distance, s_k = F_k / d_k
+///    (zero when apart), four pairs per `f64x4`, with no branch on contact;
+/// 2. every particle sums s_k (x_i - x_other) over its pairs (its own row, then the pairs
+///    it is partner in, in list order) and adds its wall forces.
+///
+/// Each pair force is computed once and its two halves are exact negatives; each particle
+/// sums in a fixed order, so the result does not depend on the thread count. Also finds
+/// the largest overlap ratio for the monitor.
 pub fn hertz_contact(
+    mut pair_scale: Local<Vec<f64>>,
     mut particles: ResMut<Particles>,
     list: Res<VerletList>,
     materials: Res<Materials>,
@@ -170,17 +180,51 @@ pub fn hertz_contact(
     let _span = tracing::info_span!("hertz_contact").entered();
     let walls = walls.as_deref().zip(wall_list.as_deref());
     let restitution = materials.pairs.iter().any(|p| p.restitution_factor > 0.0);
-    let p = &mut *particles;
+    let p = &*particles;
+    pair_scale.resize(list.pairs(), 0.0);
     let one = OneMaterial(materials.pairs[0]);
-    let worst = match (materials.list.len() == 1, restitution) {
-        (true, false) => contact_kernel::<_, ConstantDamping>(p, &list, &one, walls),
-        (true, true) => contact_kernel::<_, RestitutionDamping>(p, &list, &one, walls),
-        (false, false) => contact_kernel::<_, ConstantDamping>(p, &list, &*materials, walls),
-        (false, true) => contact_kernel::<_, RestitutionDamping>(p, &list, &*materials, walls),
+    let s = &mut pair_scale[..];
+    let span = tracing::info_span!("pair_forces").entered();
+    let worst_pair = match (materials.list.len() == 1, restitution) {
+        (true, false) => pair_forces::<_, ConstantDamping>(p, &list, &one, s),
+        (true, true) => pair_forces::<_, RestitutionDamping>(p, &list, &one, s),
+        (false, false) => pair_forces::<_, ConstantDamping>(p, &list, &*materials, s),
+        (false, true) => pair_forces::<_, RestitutionDamping>(p, &list, &*materials, s),
     };
+    drop(span);
+    let _span2 = tracing::info_span!("sum_forces").entered();
+    let worst_wall = match (materials.list.len() == 1, restitution) {
+        (true, false) => {
+            sum_forces::<_, ConstantDamping>(&mut particles, &list, &pair_scale, &one, walls)
+        }
+        (true, true) => {
+            sum_forces::<_, RestitutionDamping>(&mut particles, &list, &pair_scale, &one, walls)
+        }
+        (false, false) => {
+            sum_forces::<_, ConstantDamping>(&mut particles, &list, &pair_scale, &*materials, walls)
+        }
+        (false, true) => sum_forces::<_, RestitutionDamping>(
+            &mut particles,
+            &list,
+            &pair_scale,
+            &*materials,
+            walls,
+        ),
+    };
+    let worst = deeper(worst_pair, worst_wall);
     health.max_overlap_ratio = worst.0;
     health.max_overlap_particle = worst.1;
     health.run_max_overlap_ratio = health.run_max_overlap_ratio.max(worst.0);
+}
+
+/// The deeper of two (overlap ratio, particle id) records; the smaller id on ties.
+#[inline(always)]
+fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
+    if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+        b
+    } else {
+        a
+    }
 }
 
 /// Gather `col[js[0..4]]` into lanes.
@@ -189,17 +233,79 @@ fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
     f64x4::new([col[js[0]], col[js[1]], col[js[2]], col[js[3]]])
 }
 
-/// Sum of the lanes in a fixed order.
-#[inline(always)]
-fn lane_sum(v: f64x4) -> f64 {
-    let a = v.to_array();
-    (a[0] + a[1]) + (a[2] + a[3])
+/// Pairs per parallel work item of the pair pass.
+const PAIR_CHUNK: usize = 4 * CHUNK;
+
+/// Pass 1: s_k = F_k / d_k for every pair (zero when apart). Returns the largest overlap
+/// over the smaller radius, with the smaller id of its pair.
+fn pair_forces<T: PairTable, D: NormalDamping>(
+    p: &Particles,
+    list: &VerletList,
+    table: &T,
+    scale: &mut [f64],
+) -> (f64, u32) {
+    let [x, y, z] = &p.position;
+    let [vx, vy, vz] = &p.velocity;
+    let (r, inv_m, mat, id) = (&p.radius, &p.inv_mass, &p.material, &p.id);
+    let (owner, partner) = (&list.owner, &list.neighbours);
+    let zero = f64x4::ZERO;
+    scale
+        .par_chunks_mut(PAIR_CHUNK)
+        .enumerate()
+        .map(|(c, out)| {
+            let base = c * PAIR_CHUNK;
+            let mut worst = (0.0f64, u32::MAX);
+            for (g, out) in out.chunks_mut(4).enumerate() {
+                let k0 = base + 4 * g;
+                let lanes = out.len();
+                // Lanes past the end repeat the last pair and are dropped.
+                let is = [0, 1, 2, 3].map(|l| owner[k0 + l.min(lanes - 1)] as usize);
+                let js = [0, 1, 2, 3].map(|l| partner[k0 + l.min(lanes - 1)] as usize);
+                let (ri, rj) = (gather(r, &is), gather(r, &js));
+                let dx = gather(x, &is) - gather(x, &js);
+                let dy = gather(y, &is) - gather(y, &js);
+                let dz = gather(z, &is) - gather(z, &js);
+                let d2 = dx * dx + dy * dy + dz * dz;
+                let rs = ri + rj;
+                let touching = d2.cmp_lt(rs * rs);
+                if touching.none() {
+                    out.fill(0.0);
+                    continue;
+                }
+                let d = d2.sqrt();
+                // One division for both 1/d and 1/(r_i + r_j); zero in lanes apart.
+                let q = touching.blend(f64x4::ONE / (d * rs), zero);
+                let inv_d = q * rs;
+                let delta = rs - d;
+                let dvx = gather(vx, &is) - gather(vx, &js);
+                let dvy = gather(vy, &is) - gather(vy, &js);
+                let dvz = gather(vz, &is) - gather(vz, &js);
+                let delta_dot = zero - (dvx * dx + dvy * dy + dvz * dz) * inv_d;
+                let r_eff = ri * rj * (q * d);
+                let inv_mass_sum = gather(inv_m, &is) + gather(inv_m, &js);
+                let (hf, damp) = table.lanes::<D>(&is, &js, mat);
+                let f =
+                    hertz_normal_force::<f64x4, D>(hf, damp, r_eff, inv_mass_sum, delta, delta_dot);
+                let s = touching.blend(f * inv_d, zero).to_array();
+                out.copy_from_slice(&s[..lanes]);
+                let ratio = touching.blend(delta / ri.min(rj), zero).to_array();
+                for l in 0..lanes {
+                    if ratio[l] > 0.0 {
+                        worst = deeper(worst, (ratio[l], id[is[l]].min(id[js[l]])));
+                    }
+                }
+            }
+            worst
+        })
+        .reduce(|| (0.0, u32::MAX), deeper)
 }
 
-/// Returns the largest overlap ratio and the id of its particle (smallest id on ties).
-fn contact_kernel<T: PairTable, D: NormalDamping>(
+/// Pass 2: every particle's force from its pairs and walls. Returns the deepest wall
+/// overlap ratio and its particle.
+fn sum_forces<T: PairTable, D: NormalDamping>(
     particles: &mut Particles,
     list: &VerletList,
+    scale: &[f64],
     table: &T,
     walls: Option<(&Walls, &WallList)>,
 ) -> (f64, u32) {
@@ -216,13 +322,7 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
     let [x, y, z] = &*position;
     let [vx, vy, vz] = &*velocity;
     let (r, inv_m, mat, id) = (&*radius, &*inv_mass, &*material, &*id);
-    let (start, nbr) = (&list.start, &list.neighbours);
     let [fx, fy, fz] = force;
-    let zero = f64x4::ZERO;
-    // Lane masks of a group of 1, 2, 3 or 4 neighbours.
-    let row_mask = [1, 2, 3, 4].map(|n| {
-        f64x4::new([0, 1, 2, 3].map(|l| if l < n { 1.0 } else { 0.0 })).cmp_gt(f64x4::splat(0.5))
-    });
     (
         fx.par_chunks_mut(CHUNK),
         fy.par_chunks_mut(CHUNK),
@@ -235,71 +335,25 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
             let mut worst = (0.0f64, u32::MAX);
             for k in 0..fx.len() {
                 let i = base + k;
-                let (xi, yi, zi, ri) = (
-                    f64x4::splat(x[i]),
-                    f64x4::splat(y[i]),
-                    f64x4::splat(z[i]),
-                    r[i],
-                );
-                let (vxi, vyi, vzi) = (
-                    f64x4::splat(vx[i]),
-                    f64x4::splat(vy[i]),
-                    f64x4::splat(vz[i]),
-                );
-                let (inv_mi, mi) = (f64x4::splat(inv_m[i]), mat[i]);
-                let (mut sx, mut sy, mut sz, mut deepest) = (zero, zero, zero, zero);
-                for group in nbr[start[i] as usize..start[i + 1] as usize].chunks(4) {
-                    // Lanes past the row's end point at particle i itself and are masked.
-                    let mut js = [i; 4];
-                    for (l, &j) in group.iter().enumerate() {
-                        js[l] = j as usize;
-                    }
-                    let (hf, damp) = table.lanes::<D>(mi, mat, &js);
-                    let rj = gather(r, &js);
-                    let (dx, dy, dz) = (
-                        xi - gather(x, &js),
-                        yi - gather(y, &js),
-                        zi - gather(z, &js),
-                    );
-                    let d2 = dx * dx + dy * dy + dz * dz;
-                    let ri4 = f64x4::splat(ri);
-                    let rs = ri4 + rj;
-                    let touching = d2.cmp_lt(rs * rs) & row_mask[group.len() - 1];
-                    if touching.none() {
-                        continue;
-                    }
-                    let d = d2.sqrt();
-                    // One division for both 1/d and 1/(r_i + r_j); zero in masked lanes, whose
-                    // d may be zero (padding), so that no NaN reaches the sums.
-                    let q = touching.blend(f64x4::ONE / (d * rs), zero);
-                    let inv_d = q * rs;
-                    let (nx, ny, nz) = (dx * inv_d, dy * inv_d, dz * inv_d);
-                    let delta = rs - d;
-                    let delta_dot = zero
-                        - ((vxi - gather(vx, &js)) * nx
-                            + (vyi - gather(vy, &js)) * ny
-                            + (vzi - gather(vz, &js)) * nz);
-                    let r_eff = ri4 * rj * (q * d);
-                    let inv_mass_sum = inv_mi + gather(inv_m, &js);
-                    let f = hertz_normal_force::<f64x4, D>(
-                        hf,
-                        damp,
-                        r_eff,
-                        inv_mass_sum,
-                        delta,
-                        delta_dot,
-                    );
-                    let f = touching.blend(f, zero);
-                    sx += f * nx;
-                    sy += f * ny;
-                    sz += f * nz;
-                    deepest = deepest.max(touching.blend(delta, zero));
+                let (xi, yi, zi) = (x[i], y[i], z[i]);
+                let (mut sx, mut sy, mut sz) = (0.0, 0.0, 0.0);
+                for p in list.start[i] as usize..list.start[i + 1] as usize {
+                    let (j, s) = (list.neighbours[p] as usize, scale[p]);
+                    sx += s * (xi - x[j]);
+                    sy += s * (yi - y[j]);
+                    sz += s * (zi - z[j]);
                 }
-                let (mut sx, mut sy, mut sz) = (lane_sum(sx), lane_sum(sy), lane_sum(sz));
-                // Over both rows of a pair, max(delta/r_i, delta/r_j) = delta/min(r_i, r_j).
-                let mut deepest = deepest.to_array().into_iter().fold(0.0, f64::max);
+                for &p in
+                    &list.rev_pairs[list.rev_start[i] as usize..list.rev_start[i + 1] as usize]
+                {
+                    let (j, s) = (list.owner[p as usize] as usize, scale[p as usize]);
+                    sx += s * (xi - x[j]);
+                    sy += s * (yi - y[j]);
+                    sz += s * (zi - z[j]);
+                }
                 if let Some((walls, wl)) = walls {
-                    let (xi, yi, zi) = (x[i], y[i], z[i]);
+                    let ri = r[i];
+                    let mut deepest = 0.0f64;
                     for &w in &wl.walls[wl.start[i] as usize..wl.start[i + 1] as usize] {
                         let wall = &walls.list[w as usize];
                         let (dist, n) = wall_distance(&wall.shape, [xi, yi, zi]);
@@ -308,7 +362,7 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
                         }
                         let delta = ri - dist;
                         let delta_dot = -(vx[i] * n[0] + vy[i] * n[1] + vz[i] * n[2]);
-                        let p = table.get(wall.material, mi);
+                        let p = table.get(wall.material, mat[i]);
                         let f = hertz_normal_force::<f64, D>(
                             p.hertz_factor,
                             D::coefficient(p),
@@ -322,27 +376,15 @@ fn contact_kernel<T: PairTable, D: NormalDamping>(
                         sz += f * n[2];
                         deepest = deepest.max(delta);
                     }
+                    if deepest > 0.0 {
+                        worst = deeper(worst, (deepest / ri, id[i]));
+                    }
                 }
                 fx[k] = sx;
                 fy[k] = sy;
                 fz[k] = sz;
-                if deepest > 0.0 {
-                    let ratio = deepest / ri;
-                    if ratio > worst.0 || (ratio == worst.0 && id[i] < worst.1) {
-                        worst = (ratio, id[i]);
-                    }
-                }
             }
             worst
         })
-        .reduce(
-            || (0.0, u32::MAX),
-            |a, b| {
-                if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
-                    b
-                } else {
-                    a
-                }
-            },
-        )
+        .reduce(|| (0.0, u32::MAX), deeper)
 }

@@ -51,7 +51,7 @@ pub fn verlet_list(
     } else {
         order.members
     };
-    build_full_list(
+    build_half_list(
         &particles,
         &grid,
         &cell_of,
@@ -212,9 +212,10 @@ impl CellGrid {
     }
 }
 
-/// Build the full list: for each particle, all others within `r_i + r_j + skin`, scanned
-/// over the 27 surrounding cells in cell order.
-fn build_full_list(
+/// Build the half list: for each particle, the others of higher row index within
+/// `r_i + r_j + skin`, scanned over the 27 surrounding cells in cell order; then the owner
+/// of every pair and the reverse index (a counting sort of the pairs by partner).
+fn build_half_list(
     particles: &Particles,
     grid: &CellGrid,
     cell_of: &[u32],
@@ -231,7 +232,7 @@ fn build_full_list(
         .into_par_iter()
         .map(|chunk| {
             let range = chunk * CHUNK..((chunk + 1) * CHUNK).min(n);
-            let mut nbrs = Vec::with_capacity(range.len() * 12);
+            let mut nbrs = Vec::with_capacity(range.len() * 6);
             let mut counts = Vec::with_capacity(range.len());
             for i in range {
                 let before = nbrs.len();
@@ -248,12 +249,14 @@ fn build_full_list(
                             let j = j as usize;
                             let (dx, dy, dz) = (xi - x[j], yi - y[j], zi - z[j]);
                             let cut = ri + r[j];
-                            if dx * dx + dy * dy + dz * dz < cut * cut && j != i {
+                            if j > i && dx * dx + dy * dy + dz * dz < cut * cut {
                                 nbrs.push(j as u32);
                             }
                         }
                     }
                 }
+                // Partners in ascending row order: pair order follows memory order.
+                nbrs[before..].sort_unstable();
                 counts.push((nbrs.len() - before) as u32);
             }
             (nbrs, counts)
@@ -263,13 +266,33 @@ fn build_full_list(
     list.start.reserve(n + 1);
     list.start.push(0);
     list.neighbours.clear();
+    list.owner.clear();
     let mut total = 0u32;
+    let mut i = 0u32;
     for (nbrs, counts) in &rows {
         for &c in counts {
             total += c;
             list.start.push(total);
+            list.owner.extend(std::iter::repeat_n(i, c as usize));
+            i += 1;
         }
         list.neighbours.extend_from_slice(nbrs);
+    }
+    // Reverse index: pairs by partner, ascending pair index within each partner.
+    list.rev_start.clear();
+    list.rev_start.resize(n + 1, 0);
+    for &j in &list.neighbours {
+        list.rev_start[j as usize + 1] += 1;
+    }
+    for p in 0..n {
+        list.rev_start[p + 1] += list.rev_start[p];
+    }
+    let mut fill = list.rev_start.clone();
+    list.rev_pairs.clear();
+    list.rev_pairs.resize(list.neighbours.len(), 0);
+    for (k, &j) in list.neighbours.iter().enumerate() {
+        list.rev_pairs[fill[j as usize] as usize] = k as u32;
+        fill[j as usize] += 1;
     }
 }
 
@@ -280,11 +303,15 @@ struct OldList {
     neighbours: Vec<u32>,
 }
 
-/// Move each pair's history from its old list entry to its new one (matched by the ids of
-/// both particles); new pairs start from zero.
+/// Move each pair's history from its old place to its new one (matched by the ids of both
+/// particles: in the old list the pair sat in the row of its lower old row index); new
+/// pairs start from zero.
 fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list: &VerletList) {
     let w = history.width;
-    let n = ids.len();
+    if w == 0 {
+        history.values.clear();
+        return;
+    }
     let max_id = ids
         .iter()
         .chain(&old.ids)
@@ -296,33 +323,27 @@ fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list:
         old_row[id as usize] = row as u32;
     }
     let old_values = std::mem::take(&mut history.values);
-    let rows: Vec<Vec<f64>> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let range = c * CHUNK..((c + 1) * CHUNK).min(n);
-            let entries = (list.start[range.start] as usize)..(list.start[range.end] as usize);
-            let mut out = vec![0.0; entries.len() * w];
-            for i in range {
-                let oi = old_row[ids[i] as usize];
-                if oi == u32::MAX || old.start.len() <= oi as usize + 1 {
+    let pairs = list.neighbours.len();
+    let mut values = vec![0.0; pairs * w];
+    values
+        .par_chunks_mut(CHUNK * w)
+        .enumerate()
+        .for_each(|(c, out)| {
+            for (slot, k) in out.chunks_mut(w).zip(c * CHUNK..) {
+                let (a, b) = (
+                    old_row[ids[list.owner[k] as usize] as usize],
+                    old_row[ids[list.neighbours[k] as usize] as usize],
+                );
+                let (lo, hi) = (a.min(b) as usize, a.max(b));
+                if b == u32::MAX || a == u32::MAX || old.start.len() <= lo + 1 {
                     continue;
                 }
-                let old_row_entries =
-                    old.start[oi as usize] as usize..old.start[oi as usize + 1] as usize;
-                for k in list.start[i] as usize..list.start[i + 1] as usize {
-                    let oj = old_row[ids[list.neighbours[k] as usize] as usize];
-                    if let Some(pos) = old.neighbours[old_row_entries.clone()]
-                        .iter()
-                        .position(|&x| x == oj)
-                    {
-                        let src = (old_row_entries.start + pos) * w;
-                        let dst = (k - entries.start) * w;
-                        out[dst..dst + w].copy_from_slice(&old_values[src..src + w]);
-                    }
+                let row = old.start[lo] as usize..old.start[lo + 1] as usize;
+                if let Ok(pos) = old.neighbours[row.clone()].binary_search(&hi) {
+                    let src = (row.start + pos) * w;
+                    slot.copy_from_slice(&old_values[src..src + w]);
                 }
             }
-            out
-        })
-        .collect();
-    history.values = rows.concat();
+        });
+    history.values = values;
 }
