@@ -238,7 +238,17 @@ impl Simulation {
             rows += v.bytes_per_row() as f64;
         }
         let list = self.world.resource::<VerletList>();
-        let list_bytes = (list.neighbours.capacity() * 4 + list.start.capacity() * 4) as f64
+        let list_bytes = [
+            &list.start,
+            &list.neighbours,
+            &list.owner,
+            &list.rev_start,
+            &list.rev_pairs,
+            &list.rev_owner,
+        ]
+        .iter()
+        .map(|v| v.capacity() * 4)
+        .sum::<usize>() as f64
             + list
                 .reference
                 .iter()
@@ -273,7 +283,7 @@ impl Simulation {
             "kinetic_energy": health.kinetic_energy,
             "max_overlap_ratio": health.run_max_overlap_ratio,
             "neighbour_list_builds": list.builds,
-            "neighbours_per_particle": list.neighbours.len() as f64 / n.max(1) as f64,
+            "neighbour_pairs_per_particle": list.pairs() as f64 / n.max(1) as f64,
             "integrator": match self.scene.simulation.integrator {
                 crate::scene::IntegratorName::Gear => "gear",
                 crate::scene::IntegratorName::VelocityVerlet => "velocity_verlet",

@@ -15,7 +15,8 @@ pub struct NeighbourSettings {
 /// its lower row index. The pairs of row `i` are `k` in `start[i]..start[i+1]`, with
 /// partner `neighbours[k]` (> i) and owner `owner[k]` (= i), in cell order. The reverse
 /// index lists, for each particle, the pairs in which it is the partner:
-/// `rev_pairs[rev_start[p]..rev_start[p+1]]`, ascending. With it, every particle sums the
+/// `rev_pairs[rev_start[p]..rev_start[p+1]]`, ascending, with their owners beside them in
+/// `rev_owner` (the same as `owner[rev_pairs[..]]`, kept to spare the hot loop a lookup). With it, every particle sums the
 /// forces of all its pairs itself, in a fixed order, while each pair force is computed once.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct VerletList {
@@ -24,6 +25,7 @@ pub struct VerletList {
     pub owner: Vec<u32>,
     pub rev_start: Vec<u32>,
     pub rev_pairs: Vec<u32>,
+    pub rev_owner: Vec<u32>,
     /// Positions at the last rebuild.
     pub reference: Columns,
     /// Set by systems that change the particle set (insertion) to force a rebuild.
@@ -44,10 +46,8 @@ impl VerletList {
     /// partner in.
     pub fn partners(&self, i: usize) -> impl Iterator<Item = u32> + '_ {
         let fwd = &self.neighbours[self.start[i] as usize..self.start[i + 1] as usize];
-        let rev = &self.rev_pairs[self.rev_start[i] as usize..self.rev_start[i + 1] as usize];
-        fwd.iter()
-            .copied()
-            .chain(rev.iter().map(|&k| self.owner[k as usize]))
+        let rev = &self.rev_owner[self.rev_start[i] as usize..self.rev_start[i + 1] as usize];
+        fwd.iter().copied().chain(rev.iter().copied())
     }
 }
 

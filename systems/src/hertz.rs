@@ -9,7 +9,7 @@ use grainflow_components::{
     Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
 };
 use rayon::prelude::*;
-use wide::{f64x4, CmpLt};
+use wide::{f64x4, CmpGt, CmpLt};
 
 use crate::walls::wall_distance;
 use crate::CHUNK;
@@ -120,15 +120,11 @@ pub fn hertz_normal_force<T: Real, D: NormalDamping>(
 /// does no table gather.
 trait PairTable: Sync {
     fn get(&self, a: u16, b: u16) -> &PairParams;
-    /// (4/3) E* and the damping coefficient of the particle pairs (`is`, `js`), as lanes.
+    /// (4/3) E* and the damping coefficient of material `a` with the particles `js`, as
+    /// lanes.
     #[inline(always)]
-    fn lanes<D: NormalDamping>(
-        &self,
-        is: &[usize; 4],
-        js: &[usize; 4],
-        mat: &[u16],
-    ) -> (f64x4, f64x4) {
-        let p = [0, 1, 2, 3].map(|l| self.get(mat[is[l]], mat[js[l]]));
+    fn lanes<D: NormalDamping>(&self, a: u16, js: &[usize; 4], mat: &[u16]) -> (f64x4, f64x4) {
+        let p = js.map(|j| self.get(a, mat[j]));
         (
             f64x4::new(p.map(|p| p.hertz_factor)),
             f64x4::new(p.map(D::coefficient)),
@@ -144,7 +140,7 @@ impl PairTable for OneMaterial {
         &self.0
     }
     #[inline(always)]
-    fn lanes<D: NormalDamping>(&self, _: &[usize; 4], _: &[usize; 4], _: &[u16]) -> (f64x4, f64x4) {
+    fn lanes<D: NormalDamping>(&self, _: u16, _: &[usize; 4], _: &[u16]) -> (f64x4, f64x4) {
         (
             f64x4::splat(self.0.hertz_factor),
             f64x4::splat(D::coefficient(&self.0)),
@@ -160,14 +156,16 @@ impl PairTable for Materials {
 }
 
 /// Contact forces of this step, in two passes over the half Verlet list:
-/// 1. every listed pair once: the Hertz force magnitude over the distance, s_k = F_k / d_k
-///    (zero when apart), four pairs per `f64x4`, with no branch on contact;
-/// 2. every particle sums s_k (x_i - x_other) over its pairs (its own row, then the pairs
-///    it is partner in, in list order) and adds its wall forces.
+/// 1. every particle i, for the pairs of its own row (partners j > i), four at a time in
+///    `f64x4` lanes with no branch on contact: the Hertz force magnitude over the
+///    distance, s_k = F_k / d_k (zero when apart), stored per pair, and the row's forces
+///    on i summed;
+/// 2. every particle adds s_k (x_i - x_owner) over the pairs it is partner in (the other
+///    half of each pair force, an exact negative), then its wall forces.
 ///
-/// Each pair force is computed once and its two halves are exact negatives; each particle
-/// sums in a fixed order, so the result does not depend on the thread count. Also finds
-/// the largest overlap ratio for the monitor.
+/// Each pair force is computed once; each particle sums in a fixed order (own row, then
+/// partner pairs in list order, then walls), so the result does not depend on the thread
+/// count. Also finds the largest overlap ratio for the monitor.
 pub fn hertz_contact(
     mut pair_scale: Local<Vec<f64>>,
     mut particles: ResMut<Particles>,
@@ -180,36 +178,28 @@ pub fn hertz_contact(
     let _span = tracing::info_span!("hertz_contact").entered();
     let walls = walls.as_deref().zip(wall_list.as_deref());
     let restitution = materials.pairs.iter().any(|p| p.restitution_factor > 0.0);
-    let p = &*particles;
     pair_scale.resize(list.pairs(), 0.0);
     let one = OneMaterial(materials.pairs[0]);
-    let s = &mut pair_scale[..];
-    let span = tracing::info_span!("pair_forces").entered();
+    let (p, s) = (&mut *particles, &mut pair_scale[..]);
+    let span = tracing::info_span!("row_forces").entered();
     let worst_pair = match (materials.list.len() == 1, restitution) {
-        (true, false) => pair_forces::<_, ConstantDamping>(p, &list, &one, s),
-        (true, true) => pair_forces::<_, RestitutionDamping>(p, &list, &one, s),
-        (false, false) => pair_forces::<_, ConstantDamping>(p, &list, &*materials, s),
-        (false, true) => pair_forces::<_, RestitutionDamping>(p, &list, &*materials, s),
+        (true, false) => row_forces::<_, ConstantDamping>(p, &list, &one, s),
+        (true, true) => row_forces::<_, RestitutionDamping>(p, &list, &one, s),
+        (false, false) => row_forces::<_, ConstantDamping>(p, &list, &*materials, s),
+        (false, true) => row_forces::<_, RestitutionDamping>(p, &list, &*materials, s),
     };
+    let s = &pair_scale[..];
     drop(span);
-    let _span2 = tracing::info_span!("sum_forces").entered();
+    let _span2 = tracing::info_span!("partner_forces").entered();
     let worst_wall = match (materials.list.len() == 1, restitution) {
-        (true, false) => {
-            sum_forces::<_, ConstantDamping>(&mut particles, &list, &pair_scale, &one, walls)
-        }
-        (true, true) => {
-            sum_forces::<_, RestitutionDamping>(&mut particles, &list, &pair_scale, &one, walls)
-        }
+        (true, false) => partner_and_wall_forces::<_, ConstantDamping>(p, &list, s, &one, walls),
+        (true, true) => partner_and_wall_forces::<_, RestitutionDamping>(p, &list, s, &one, walls),
         (false, false) => {
-            sum_forces::<_, ConstantDamping>(&mut particles, &list, &pair_scale, &*materials, walls)
+            partner_and_wall_forces::<_, ConstantDamping>(p, &list, s, &*materials, walls)
         }
-        (false, true) => sum_forces::<_, RestitutionDamping>(
-            &mut particles,
-            &list,
-            &pair_scale,
-            &*materials,
-            walls,
-        ),
+        (false, true) => {
+            partner_and_wall_forces::<_, RestitutionDamping>(p, &list, s, &*materials, walls)
+        }
     };
     let worst = deeper(worst_pair, worst_wall);
     health.max_overlap_ratio = worst.0;
@@ -233,76 +223,138 @@ fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
     f64x4::new([col[js[0]], col[js[1]], col[js[2]], col[js[3]]])
 }
 
-/// Pairs per parallel work item of the pair pass.
-const PAIR_CHUNK: usize = 4 * CHUNK;
+/// Sum of the lanes in a fixed order.
+#[inline(always)]
+fn lane_sum(v: f64x4) -> f64 {
+    let a = v.to_array();
+    (a[0] + a[1]) + (a[2] + a[3])
+}
 
-/// Pass 1: s_k = F_k / d_k for every pair (zero when apart). Returns the largest overlap
-/// over the smaller radius, with the smaller id of its pair.
-fn pair_forces<T: PairTable, D: NormalDamping>(
-    p: &Particles,
+/// Split `scale` into the pair ranges of consecutive chunks of `CHUNK` rows.
+fn pair_chunks<'a>(mut scale: &'a mut [f64], start: &[u32], n: usize) -> Vec<&'a mut [f64]> {
+    let mut out = Vec::with_capacity(n.div_ceil(CHUNK));
+    for c in 0..n.div_ceil(CHUNK) {
+        let len = (start[((c + 1) * CHUNK).min(n)] - start[c * CHUNK]) as usize;
+        let (head, tail) = std::mem::take(&mut scale).split_at_mut(len);
+        out.push(head);
+        scale = tail;
+    }
+    out
+}
+
+/// Pass 1: the pairs of each particle's own row. Writes the row sums into the force
+/// columns and s_k for every pair; returns the largest overlap over the smaller radius of
+/// its pair, with the id of the pair's row owner.
+fn row_forces<T: PairTable, D: NormalDamping>(
+    particles: &mut Particles,
     list: &VerletList,
     table: &T,
     scale: &mut [f64],
 ) -> (f64, u32) {
-    let [x, y, z] = &p.position;
-    let [vx, vy, vz] = &p.velocity;
-    let (r, inv_m, mat, id) = (&p.radius, &p.inv_mass, &p.material, &p.id);
-    let (owner, partner) = (&list.owner, &list.neighbours);
+    let n = particles.len();
+    let Particles {
+        position,
+        velocity,
+        radius,
+        inv_mass,
+        material,
+        force,
+        id,
+        ..
+    } = particles;
+    let [x, y, z] = &*position;
+    let [vx, vy, vz] = &*velocity;
+    let (r, inv_m, mat, id) = (&*radius, &*inv_mass, &*material, &*id);
+    let (start, nbr) = (&list.start, &list.neighbours);
+    let [fx, fy, fz] = force;
     let zero = f64x4::ZERO;
-    scale
-        .par_chunks_mut(PAIR_CHUNK)
+    // Lane masks of a group of 1, 2, 3 or 4 pairs.
+    let row_mask = [1, 2, 3, 4]
+        .map(|m| f64x4::new([0, 1, 2, 3].map(|l| if l < m { 1.0 } else { -1.0 })).cmp_gt(zero));
+    (
+        fx.par_chunks_mut(CHUNK),
+        fy.par_chunks_mut(CHUNK),
+        fz.par_chunks_mut(CHUNK),
+        pair_chunks(scale, start, n),
+    )
+        .into_par_iter()
         .enumerate()
-        .map(|(c, out)| {
-            let base = c * PAIR_CHUNK;
+        .map(|(c, (fx, fy, fz, scale))| {
+            let base = c * CHUNK;
+            let pair_base = start[base] as usize;
             let mut worst = (0.0f64, u32::MAX);
-            for (g, out) in out.chunks_mut(4).enumerate() {
-                let k0 = base + 4 * g;
-                let lanes = out.len();
-                // Lanes past the end repeat the last pair and are dropped.
-                let is = [0, 1, 2, 3].map(|l| owner[k0 + l.min(lanes - 1)] as usize);
-                let js = [0, 1, 2, 3].map(|l| partner[k0 + l.min(lanes - 1)] as usize);
-                let (ri, rj) = (gather(r, &is), gather(r, &js));
-                let dx = gather(x, &is) - gather(x, &js);
-                let dy = gather(y, &is) - gather(y, &js);
-                let dz = gather(z, &is) - gather(z, &js);
-                let d2 = dx * dx + dy * dy + dz * dz;
-                let rs = ri + rj;
-                let touching = d2.cmp_lt(rs * rs);
-                if touching.none() {
-                    out.fill(0.0);
-                    continue;
-                }
-                let d = d2.sqrt();
-                // One division for both 1/d and 1/(r_i + r_j); zero in lanes apart.
-                let q = touching.blend(f64x4::ONE / (d * rs), zero);
-                let inv_d = q * rs;
-                let delta = rs - d;
-                let dvx = gather(vx, &is) - gather(vx, &js);
-                let dvy = gather(vy, &is) - gather(vy, &js);
-                let dvz = gather(vz, &is) - gather(vz, &js);
-                let delta_dot = zero - (dvx * dx + dvy * dy + dvz * dz) * inv_d;
-                let r_eff = ri * rj * (q * d);
-                let inv_mass_sum = gather(inv_m, &is) + gather(inv_m, &js);
-                let (hf, damp) = table.lanes::<D>(&is, &js, mat);
-                let f =
-                    hertz_normal_force::<f64x4, D>(hf, damp, r_eff, inv_mass_sum, delta, delta_dot);
-                let s = touching.blend(f * inv_d, zero).to_array();
-                out.copy_from_slice(&s[..lanes]);
-                let ratio = touching.blend(delta / ri.min(rj), zero).to_array();
-                for l in 0..lanes {
-                    if ratio[l] > 0.0 {
-                        worst = deeper(worst, (ratio[l], id[is[l]].min(id[js[l]])));
+            for k in 0..fx.len() {
+                let i = base + k;
+                let (xi, yi, zi) = (f64x4::splat(x[i]), f64x4::splat(y[i]), f64x4::splat(z[i]));
+                let (vxi, vyi, vzi) = (
+                    f64x4::splat(vx[i]),
+                    f64x4::splat(vy[i]),
+                    f64x4::splat(vz[i]),
+                );
+                let (ri, inv_mi) = (f64x4::splat(r[i]), f64x4::splat(inv_m[i]));
+                let (mut sx, mut sy, mut sz, mut deepest) = (zero, zero, zero, zero);
+                let row = start[i] as usize..start[i + 1] as usize;
+                for (g, group) in nbr[row.clone()].chunks(4).enumerate() {
+                    let first = row.start + 4 * g;
+                    // Lanes past the row's end repeat its last partner and are masked.
+                    let js = [0, 1, 2, 3].map(|l| group[l.min(group.len() - 1)] as usize);
+                    let rj = gather(r, &js);
+                    let (dx, dy, dz) = (
+                        xi - gather(x, &js),
+                        yi - gather(y, &js),
+                        zi - gather(z, &js),
+                    );
+                    let d2 = dx * dx + dy * dy + dz * dz;
+                    let rs = ri + rj;
+                    let touching = d2.cmp_lt(rs * rs) & row_mask[group.len() - 1];
+                    let out = &mut scale[first - pair_base..first - pair_base + group.len()];
+                    if touching.none() {
+                        out.fill(0.0);
+                        continue;
                     }
+                    let d = d2.sqrt();
+                    // One division for both 1/d and 1/(r_i + r_j); zero in lanes apart.
+                    let q = touching.blend(f64x4::ONE / (d * rs), zero);
+                    let inv_d = q * rs;
+                    let delta = rs - d;
+                    let delta_dot = zero
+                        - ((vxi - gather(vx, &js)) * dx
+                            + (vyi - gather(vy, &js)) * dy
+                            + (vzi - gather(vz, &js)) * dz)
+                            * inv_d;
+                    let r_eff = ri * rj * (q * d);
+                    let (hf, damp) = table.lanes::<D>(mat[i], &js, mat);
+                    let f = hertz_normal_force::<f64x4, D>(
+                        hf,
+                        damp,
+                        r_eff,
+                        inv_mi + gather(inv_m, &js),
+                        delta,
+                        delta_dot,
+                    );
+                    let s = touching.blend(f * inv_d, zero);
+                    sx += s * dx;
+                    sy += s * dy;
+                    sz += s * dz;
+                    out.copy_from_slice(&s.to_array()[..group.len()]);
+                    deepest = deepest.max(touching.blend(delta / ri.min(rj), zero));
                 }
+                let ratio = deepest.to_array().into_iter().fold(0.0, f64::max);
+                if ratio > 0.0 {
+                    worst = deeper(worst, (ratio, id[i]));
+                }
+                fx[k] = lane_sum(sx);
+                fy[k] = lane_sum(sy);
+                fz[k] = lane_sum(sz);
             }
             worst
         })
         .reduce(|| (0.0, u32::MAX), deeper)
 }
 
-/// Pass 2: every particle's force from its pairs and walls. Returns the deepest wall
-/// overlap ratio and its particle.
-fn sum_forces<T: PairTable, D: NormalDamping>(
+/// Pass 2: every particle adds the other half of the pairs it is partner in, then its
+/// wall forces. Returns the deepest wall overlap ratio and its particle.
+fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
     particles: &mut Particles,
     list: &VerletList,
     scale: &[f64],
@@ -336,17 +388,10 @@ fn sum_forces<T: PairTable, D: NormalDamping>(
             for k in 0..fx.len() {
                 let i = base + k;
                 let (xi, yi, zi) = (x[i], y[i], z[i]);
-                let (mut sx, mut sy, mut sz) = (0.0, 0.0, 0.0);
-                for p in list.start[i] as usize..list.start[i + 1] as usize {
-                    let (j, s) = (list.neighbours[p] as usize, scale[p]);
-                    sx += s * (xi - x[j]);
-                    sy += s * (yi - y[j]);
-                    sz += s * (zi - z[j]);
-                }
-                for &p in
-                    &list.rev_pairs[list.rev_start[i] as usize..list.rev_start[i + 1] as usize]
-                {
-                    let (j, s) = (list.owner[p as usize] as usize, scale[p as usize]);
+                let (mut sx, mut sy, mut sz) = (fx[k], fy[k], fz[k]);
+                let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
+                for (&p, &j) in list.rev_pairs[rev.clone()].iter().zip(&list.rev_owner[rev]) {
+                    let (j, s) = (j as usize, scale[p as usize]);
                     sx += s * (xi - x[j]);
                     sy += s * (yi - y[j]);
                     sz += s * (zi - z[j]);

@@ -290,8 +290,12 @@ fn build_half_list(
     let mut fill = list.rev_start.clone();
     list.rev_pairs.clear();
     list.rev_pairs.resize(list.neighbours.len(), 0);
+    list.rev_owner.clear();
+    list.rev_owner.resize(list.neighbours.len(), 0);
     for (k, &j) in list.neighbours.iter().enumerate() {
-        list.rev_pairs[fill[j as usize] as usize] = k as u32;
+        let slot = fill[j as usize] as usize;
+        list.rev_pairs[slot] = k as u32;
+        list.rev_owner[slot] = list.owner[k];
         fill[j as usize] += 1;
     }
 }
