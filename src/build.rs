@@ -255,6 +255,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         ..Default::default()
     });
     world.insert_resource(Reorder::default());
+    world.insert_resource(StepMotion::default());
     world.insert_resource(RunHealth {
         overlap_limit: scene.simulation.overlap_limit,
         ..Default::default()

@@ -20,7 +20,7 @@ pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, VerletState};
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
-pub use neighbour::{ContactHistory, NeighbourSettings, Reorder, VerletList, WallList};
+pub use neighbour::{ContactHistory, NeighbourSettings, Reorder, StepMotion, VerletList, WallList};
 pub use particles::{Particles, PerParticle};
 pub use walls::{Wall, WallShape, Walls};
 

@@ -34,6 +34,17 @@ pub struct VerletList {
     pub sorts: u64,
     /// Largest radius present at the last rebuild.
     pub max_radius: f64,
+    /// Upper bound of any particle's displacement since the last rebuild, from the
+    /// integrators' [`StepMotion`]; the exact check runs only when it exceeds skin/2.
+    pub motion_bound: f64,
+}
+
+/// Largest change of any position coordinate in this step, |dx_d| over particles and
+/// d, as reported by the integrator (sqrt(3) times it bounds every displacement).
+/// `None` until an integrator reports.
+#[derive(Resource, Debug, Clone, Copy, Default)]
+pub struct StepMotion {
+    pub max_component: Option<f64>,
 }
 
 impl VerletList {

@@ -13,7 +13,7 @@
 //! become subnormal numbers, whose arithmetic is about a hundred times slower: the
 //! corrector sets |b|, |c| < 1e-150 (in SI units: physically nil) to zero.
 use bevy_ecs::prelude::*;
-use grainflow_components::{BodyAcceleration, GearState, Particles, SimClock};
+use grainflow_components::{BodyAcceleration, GearState, Particles, SimClock, StepMotion};
 use rayon::prelude::*;
 
 use crate::{body_acceleration_column, BodyColumn, CHUNK};
@@ -22,6 +22,7 @@ pub fn gear_predict(
     mut particles: ResMut<Particles>,
     mut gear: ResMut<GearState>,
     clock: Res<SimClock>,
+    mut motion: ResMut<StepMotion>,
 ) {
     let _span = tracing::info_span!("gear_predict").entered();
     let dt = clock.dt;
@@ -32,8 +33,9 @@ pub fn gear_predict(
     let Particles {
         position, velocity, ..
     } = &mut *particles;
+    let mut largest = 0.0f64;
     for d in 0..3 {
-        (
+        let column_largest = (
             position[d].par_chunks_mut(CHUNK),
             velocity[d].par_chunks_mut(CHUNK),
             acc[d].par_chunks_mut(CHUNK),
@@ -41,17 +43,25 @@ pub fn gear_predict(
             snap[d].par_chunks(CHUNK),
         )
             .into_par_iter()
-            .for_each(|(x, v, a, b, c)| {
+            .map(|(x, v, a, b, c)| {
                 let n = x.len();
                 let (v, a, b, c) = (&mut v[..n], &mut a[..n], &mut b[..n], &c[..n]);
+                let mut largest = 0u64;
                 for k in 0..n {
-                    x[k] += v[k] * dt + a[k] * h2 + b[k] * h3 + c[k] * h4;
+                    let dx = v[k] * dt + a[k] * h2 + b[k] * h3 + c[k] * h4;
+                    x[k] += dx;
+                    largest = largest.max(dx.abs().to_bits());
                     v[k] += a[k] * dt + b[k] * h2 + c[k] * h3;
                     a[k] += b[k] * dt + c[k] * h2;
                     b[k] += c[k] * dt;
                 }
-            });
+                f64::from_bits(largest)
+            })
+            .reduce(|| 0.0, f64::max);
+        largest = largest.max(column_largest);
     }
+    // The corrector moves x again (by alpha_0 dt^2/2 Delta) and adds its share.
+    motion.max_component = Some(largest * (1.0 + 1e-12));
 }
 
 pub fn gear_correct(
@@ -59,6 +69,7 @@ pub fn gear_correct(
     mut gear: ResMut<GearState>,
     clock: Res<SimClock>,
     body: Res<BodyAcceleration>,
+    mut motion: ResMut<StepMotion>,
 ) {
     let _span = tracing::info_span!("gear_correct").entered();
     let dt = clock.dt;
@@ -75,9 +86,10 @@ pub fn gear_correct(
         material,
         ..
     } = &mut *particles;
+    let mut largest = 0.0f64;
     for d in 0..3 {
         let g = body_acceleration_column(&body, d);
-        (
+        let column_largest = (
             position[d].par_chunks_mut(CHUNK),
             velocity[d].par_chunks_mut(CHUNK),
             acc[d].par_chunks_mut(CHUNK),
@@ -88,7 +100,7 @@ pub fn gear_correct(
             material.par_chunks(CHUNK),
         )
             .into_par_iter()
-            .for_each(|(x, v, a, b, c, f, im, m)| {
+            .map(|(x, v, a, b, c, f, im, m)| {
                 let n = x.len();
                 let (v, a, b, c, f, im, m) = (
                     &mut v[..n],
@@ -99,20 +111,28 @@ pub fn gear_correct(
                     &im[..n],
                     &m[..n],
                 );
-                let mut correct = |k: usize, g: f64| {
+                let mut correct = |k: usize, g: f64, largest: u64| {
                     let delta = f[k] * im[k] + g - a[k];
                     x[k] += cx * delta;
                     v[k] += cv * delta;
                     a[k] += delta;
                     b[k] = flush_tiny(b[k] + cb * delta);
                     c[k] = flush_tiny(c[k] + cc * delta);
+                    largest.max(delta.abs().to_bits())
                 };
-                match &g {
-                    BodyColumn::Uniform(g) => (0..n).for_each(|k| correct(k, *g)),
-                    BodyColumn::PerMaterial(g) => (0..n).for_each(|k| correct(k, g[m[k] as usize])),
-                }
-            });
+                let largest = match &g {
+                    BodyColumn::Uniform(g) => (0..n).fold(0, |l, k| correct(k, *g, l)),
+                    BodyColumn::PerMaterial(g) => {
+                        (0..n).fold(0, |l, k| correct(k, g[m[k] as usize], l))
+                    }
+                };
+                cx * f64::from_bits(largest)
+            })
+            .reduce(|| 0.0, f64::max);
+        largest = largest.max(column_largest);
     }
+    // Predictor and corrector moves add (triangle inequality).
+    motion.max_component = motion.max_component.map(|m| m + largest * (1.0 + 1e-12));
 }
 
 /// Zero for |x| < 1e-150, else x.

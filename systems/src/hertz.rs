@@ -285,6 +285,11 @@ fn row_forces<T: PairTable, D: NormalDamping>(
             let mut worst = (0.0f64, u32::MAX);
             for k in 0..fx.len() {
                 let i = base + k;
+                let row = start[i] as usize..start[i + 1] as usize;
+                if row.is_empty() {
+                    (fx[k], fy[k], fz[k]) = (0.0, 0.0, 0.0);
+                    continue;
+                }
                 let (xi, yi, zi) = (f64x4::splat(x[i]), f64x4::splat(y[i]), f64x4::splat(z[i]));
                 let (vxi, vyi, vzi) = (
                     f64x4::splat(vx[i]),
@@ -293,7 +298,6 @@ fn row_forces<T: PairTable, D: NormalDamping>(
                 );
                 let (ri, inv_mi) = (f64x4::splat(r[i]), f64x4::splat(inv_m[i]));
                 let (mut sx, mut sy, mut sz, mut deepest) = (zero, zero, zero, zero);
-                let row = start[i] as usize..start[i + 1] as usize;
                 for (g, group) in nbr[row.clone()].chunks(4).enumerate() {
                     let first = row.start + 4 * g;
                     // Lanes past the row's end repeat its last partner and are masked.

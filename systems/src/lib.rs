@@ -2,6 +2,10 @@
 //!
 //! `schedule.rs` declares the order of one time step and the table of systems; reading it
 //! tells the whole step. Each physical model lives in its own file.
+//!
+//! In the integrators the largest |x| of a loop is kept as `x.abs().to_bits()` under an
+//! integer `max`: for non-negative floats the bit patterns order like the numbers, and the
+//! integer reduction vectorises where `f64::max` (with its NaN rule) would not.
 
 pub mod gear;
 pub mod hertz;

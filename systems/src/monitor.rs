@@ -27,15 +27,23 @@ pub fn stability_monitor(
     let parts: Vec<(f64, Option<usize>)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut ke = 0.0;
-            let mut bad = None;
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+            let range = c * CHUNK..((c + 1) * CHUNK).min(n);
+            // Branch-free sums (they vectorise); a non-finite value anywhere makes
+            // `check` non-finite, and only then is the chunk searched for its first one.
+            let (mut ke, mut check) = (0.0, 0.0);
+            for i in range.clone() {
                 let v2 = vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i];
                 ke += 0.5 * v2 / im[i];
-                if bad.is_none() && !(v2 + x[i] + y[i] + z[i]).is_finite() {
-                    bad = Some(i);
-                }
+                check += v2 + x[i] + y[i] + z[i];
             }
+            let bad = if check.is_finite() {
+                None
+            } else {
+                range.into_iter().find(|&i| {
+                    !(vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i] + x[i] + y[i] + z[i])
+                        .is_finite()
+                })
+            };
             (ke, bad)
         })
         .collect();

@@ -7,7 +7,7 @@
 //! neighbours are close in memory.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    ContactHistory, NeighbourSettings, Particles, PerParticle, Reorder, VerletList,
+    ContactHistory, NeighbourSettings, Particles, PerParticle, Reorder, StepMotion, VerletList,
 };
 use rayon::prelude::*;
 
@@ -20,14 +20,23 @@ pub fn verlet_list(
     settings: Res<NeighbourSettings>,
     mut reorder: ResMut<Reorder>,
     history: Option<ResMut<ContactHistory>>,
+    motion: Res<StepMotion>,
 ) {
     let _span = tracing::info_span!("verlet_list").entered();
     reorder.perm = None;
     let n = particles.len();
     let half_skin = 0.5 * settings.skin;
-    let stale = list.stale
-        || list.reference[0].len() != n
-        || max_displacement_squared(&particles, &list) > half_skin * half_skin;
+    // The integrator's bound on this step's motion spares the exact check (a pass over
+    // all positions) until the bound itself reaches skin/2.
+    list.motion_bound += motion
+        .max_component
+        .map_or(f64::INFINITY, |m| 3f64.sqrt() * m);
+    let mut stale = list.stale || list.reference[0].len() != n;
+    if !stale && list.motion_bound > half_skin {
+        let exact = max_displacement_squared(&particles, &list).sqrt();
+        stale = exact > half_skin;
+        list.motion_bound = exact;
+    }
     if !stale {
         return;
     }
@@ -68,6 +77,7 @@ pub fn verlet_list(
     }
     list.stale = false;
     list.builds += 1;
+    list.motion_bound = 0.0;
     list.max_radius = grid.max_radius;
 }
 

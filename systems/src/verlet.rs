@@ -8,7 +8,7 @@
 //! order with damping (with v(t + dt/2) alone it would be first order). The half-step
 //! velocity waits in [`VerletState`] meanwhile.
 use bevy_ecs::prelude::*;
-use grainflow_components::{BodyAcceleration, Particles, SimClock, VerletState};
+use grainflow_components::{BodyAcceleration, Particles, SimClock, StepMotion, VerletState};
 use rayon::prelude::*;
 
 use crate::{body_acceleration_column, BodyColumn, CHUNK};
@@ -16,6 +16,7 @@ use crate::{body_acceleration_column, BodyColumn, CHUNK};
 pub fn verlet_predict(
     mut particles: ResMut<Particles>,
     mut state: ResMut<VerletState>,
+    mut motion: ResMut<StepMotion>,
     clock: Res<SimClock>,
     body: Res<BodyAcceleration>,
 ) {
@@ -30,9 +31,10 @@ pub fn verlet_predict(
         material,
         ..
     } = &mut *particles;
+    let mut fastest = 0.0f64;
     for d in 0..3 {
         let g = body_acceleration_column(&body, d);
-        (
+        let column_fastest = (
             position[d].par_chunks_mut(CHUNK),
             velocity[d].par_chunks_mut(CHUNK),
             state.half_velocity[d].par_chunks_mut(CHUNK),
@@ -41,21 +43,28 @@ pub fn verlet_predict(
             material.par_chunks(CHUNK),
         )
             .into_par_iter()
-            .for_each(|(x, v, vh, f, im, m)| {
+            .map(|(x, v, vh, f, im, m)| {
                 let n = x.len();
                 let (v, vh, f, im, m) = (&mut v[..n], &mut vh[..n], &f[..n], &im[..n], &m[..n]);
+                let mut fastest = 0u64;
                 let mut predict = |k: usize, g: f64| {
                     let kick = h * (f[k] * im[k] + g);
                     vh[k] = v[k] + kick;
                     x[k] += dt * vh[k];
                     v[k] = vh[k] + kick;
+                    fastest = fastest.max(vh[k].abs().to_bits());
                 };
                 match &g {
                     BodyColumn::Uniform(g) => (0..n).for_each(|k| predict(k, *g)),
                     BodyColumn::PerMaterial(g) => (0..n).for_each(|k| predict(k, g[m[k] as usize])),
                 }
-            });
+                f64::from_bits(fastest)
+            })
+            .reduce(|| 0.0, f64::max);
+        fastest = fastest.max(column_fastest);
     }
+    // |dx_d| = dt |v_d(t + dt/2)|, rounded up by a relative 1e-12 for the products.
+    motion.max_component = Some(dt * fastest * (1.0 + 1e-12));
 }
 
 pub fn verlet_correct(
