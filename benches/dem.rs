@@ -1,5 +1,5 @@
 //! Criterion benchmarks of the DEM hot loops, per particle, on a dense packing of
-//! 50,000 spheres (simple-cubic lattice with 0.25 % overlap: six contacts per particle,
+//! 50,000 spheres (simple-cubic lattice squeezed to 0.25 % overlap: six contacts per particle,
 //! about the five to six of a settled hopper bed), the hopper-fill material.
 //!
 //!   cargo bench --bench dem
@@ -31,7 +31,7 @@ normal_damping = 1.0e-5
 [[blocks]]
 material = "grain"
 radius = 0.02
-spacing = 0.0399
+spacing = 0.04
 min = [0.0, 0.0, 0.0]
 max = [1.46, 1.46, 1.46]
 count = 50000
