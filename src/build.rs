@@ -285,7 +285,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         }
     }
     if !scene.inflows.is_empty() {
-        let mut seed = scene.simulation.seed ^ 0x5EED_0F_1F10;
+        let mut seed = scene.simulation.seed ^ 0x005E_ED0F_1F10;
         let list = scene
             .inflows
             .iter()
@@ -356,15 +356,15 @@ fn place_particles(
     let mut next_id = 0u32;
     for s in &scene.spheres {
         let m = material_index(&s.material);
-        p.push(
-            next_id,
-            m,
-            s.radius,
-            materials[m as usize].density,
-            s.position,
-            s.velocity,
-            s.angular_velocity,
-        );
+        p.push(NewParticle {
+            id: next_id,
+            material: m,
+            radius: s.radius,
+            density: materials[m as usize].density,
+            position: s.position,
+            velocity: s.velocity,
+            angular_velocity: s.angular_velocity,
+        });
         next_id += 1;
     }
     let mut rng = scene.simulation.seed;
@@ -396,15 +396,15 @@ fn place_particles(
                     {
                         continue;
                     }
-                    p.push(
-                        next_id,
-                        m,
-                        b.radius,
-                        materials[m as usize].density,
-                        pos,
-                        b.velocity,
-                        [0.0; 3],
-                    );
+                    p.push(NewParticle {
+                        id: next_id,
+                        material: m,
+                        radius: b.radius,
+                        density: materials[m as usize].density,
+                        position: pos,
+                        velocity: b.velocity,
+                        angular_velocity: [0.0; 3],
+                    });
                     next_id += 1;
                     placed += 1;
                 }
@@ -419,15 +419,15 @@ fn place_particles(
             message: e,
         })?;
         for atom in atoms {
-            p.push(
-                next_id,
-                m,
-                atom.radius,
-                materials[m as usize].density,
-                atom.position,
-                atom.velocity,
-                atom.angular_velocity,
-            );
+            p.push(NewParticle {
+                id: next_id,
+                material: m,
+                radius: atom.radius,
+                density: materials[m as usize].density,
+                position: atom.position,
+                velocity: atom.velocity,
+                angular_velocity: atom.angular_velocity,
+            });
             next_id += 1;
         }
     }

@@ -565,7 +565,7 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                         "expected radii >= 0, not both zero".into(),
                     ));
                 }
-                if !(top > bottom) {
+                if top.partial_cmp(bottom) != Some(std::cmp::Ordering::Greater) {
                     return Err((
                         f("top"),
                         format!("expected top > bottom, got {top} <= {bottom}"),
@@ -592,7 +592,9 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
             return Err((f("max"), "expected max >= min in every coordinate".into()));
         }
         if let Some(a) = b.spacing {
-            if !(a >= 2.0 * b.radius) {
+            if a.partial_cmp(&(2.0 * b.radius))
+                .is_none_or(|o| o == std::cmp::Ordering::Less)
+            {
                 return Err((
                     f("spacing"),
                     format!(
@@ -683,7 +685,7 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                     ));
                 }
                 finite_opt(f("region.bottom"), Some(*bottom))?;
-                if !(top > bottom) {
+                if top.partial_cmp(bottom) != Some(std::cmp::Ordering::Greater) {
                     return Err((f("region.top"), "expected top > bottom".into()));
                 }
             }

@@ -21,7 +21,7 @@ pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, VerletState};
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
 pub use neighbour::{ContactHistory, NeighbourSettings, Reorder, StepMotion, VerletList, WallList};
-pub use particles::{Particles, PerParticle};
+pub use particles::{NewParticle, Particles, PerParticle};
 pub use walls::{Wall, WallShape, Walls};
 
 /// Three coordinate columns of one per-particle vector quantity (x, y, z).

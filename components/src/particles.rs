@@ -18,6 +18,19 @@ pub fn permute_column<T: Copy>(col: &mut Vec<T>, perm: &[u32]) {
     *col = permuted;
 }
 
+/// One sphere to append to [`Particles`].
+#[derive(Debug, Clone, Copy)]
+pub struct NewParticle {
+    pub id: u32,
+    pub material: u16,
+    pub radius: f64,
+    /// Solid density, kg/m^3 (gives the mass).
+    pub density: f64,
+    pub position: [f64; 3],
+    pub velocity: [f64; 3],
+    pub angular_velocity: [f64; 3],
+}
+
 /// The spheres, as structure-of-arrays columns in the current (cell-sorted) order.
 /// `id` is the stable particle id used in output.
 #[derive(Resource, Debug, Clone, Default)]
@@ -40,26 +53,17 @@ impl Particles {
     pub fn is_empty(&self) -> bool {
         self.id.is_empty()
     }
-    /// Append one particle at rest or moving with `velocity`.
-    pub fn push(
-        &mut self,
-        id: u32,
-        material: u16,
-        radius: f64,
-        density: f64,
-        position: [f64; 3],
-        velocity: [f64; 3],
-        angular_velocity: [f64; 3],
-    ) {
-        let mass = density * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
-        self.id.push(id);
-        self.material.push(material);
-        self.radius.push(radius);
+    /// Append one particle.
+    pub fn push(&mut self, p: NewParticle) {
+        let mass = p.density * 4.0 / 3.0 * std::f64::consts::PI * p.radius.powi(3);
+        self.id.push(p.id);
+        self.material.push(p.material);
+        self.radius.push(p.radius);
         self.inv_mass.push(1.0 / mass);
         for d in 0..3 {
-            self.position[d].push(position[d]);
-            self.velocity[d].push(velocity[d]);
-            self.angular_velocity[d].push(angular_velocity[d]);
+            self.position[d].push(p.position[d]);
+            self.velocity[d].push(p.velocity[d]);
+            self.angular_velocity[d].push(p.angular_velocity[d]);
             self.force[d].push(0.0);
         }
     }

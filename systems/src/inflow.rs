@@ -2,7 +2,7 @@
 //! lattice inside the inflow region, at the scene's rate.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Inflow, InflowRegion, Inflows, Materials, Particles, VerletList, Walls,
+    Inflow, InflowRegion, Inflows, Materials, NewParticle, Particles, VerletList, Walls,
 };
 
 use crate::walls::{wall_contains, wall_distance};
@@ -61,15 +61,15 @@ pub fn inflow_insertion(
             for v in vel.iter_mut() {
                 *v += j * (2.0 * next_f64(&mut flow.rng_state) - 1.0);
             }
-            particles.push(
-                *next_id,
-                flow.material,
+            particles.push(NewParticle {
+                id: *next_id,
+                material: flow.material,
                 radius,
                 density,
-                site,
-                vel,
-                [0.0; 3],
-            );
+                position: site,
+                velocity: vel,
+                angular_velocity: [0.0; 3],
+            });
             *next_id += 1;
             flow.inserted += 1;
             list.stale |= k == 0;

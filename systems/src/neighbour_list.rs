@@ -47,7 +47,7 @@ pub fn verlet_list(
         start: std::mem::take(&mut list.start),
         neighbours: std::mem::take(&mut list.neighbours),
     });
-    let sort = settings.sort_every > 0 && list.builds % settings.sort_every as u64 == 0;
+    let sort = settings.sort_every > 0 && list.builds.is_multiple_of(settings.sort_every as u64);
     let grid = CellGrid::new(&particles, settings.skin);
     let mut cell_of = grid.cell_indices(&particles);
     let order = grid.counting_sort(&cell_of);

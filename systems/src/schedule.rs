@@ -3,18 +3,18 @@
 //! One DEM step runs the sets below in this order (the seed's "efficient computation"
 //! slide: neighbour list, contact, hydrodynamics, Gear predictor-corrector):
 //!
-//! 1. `Events`        walls removed at their time, particles inserted by inflows
-//! 2. `SyncRows`      per-particle blocks grown to the particle count
-//! 3. `Predict`       integrator predictor (Gear: Taylor step of all derivatives)
-//! 4. `NeighbourList` cell index + Verlet list, rebuilt when a particle moved skin/2;
-//!                    particles re-sorted in cell order
-//! 5. `Reorder`       every other per-particle block follows the re-sort
-//! 6. `Contact`       contact forces (Hertz normal + damping, walls)
+//! 1. `Events`: walls removed at their time, particles inserted by inflows
+//! 2. `SyncRows`: per-particle blocks grown to the particle count
+//! 3. `Predict`: integrator predictor (Gear: Taylor step of all derivatives)
+//! 4. `NeighbourList`: cell index + half Verlet list, rebuilt when a particle may have
+//!    moved skin/2; particles re-sorted in cell order; wall candidate lists
+//! 5. `Reorder`: every other per-particle block follows the re-sort
+//! 6. `Contact`: contact forces (Hertz normal + damping, walls)
 //! 7. `HydrodynamicSampling`, `VelocityBlending`, `MultigridFluid`: the fluid coupling
-//!                    (reserved; no system yet)
-//! 8. `Correct`       integrator corrector with body forces (gravity, buoyancy)
-//! 9. `Monitor`       stability checks (overlap, non-finite state), kinetic energy
-//! 10. `Output`       writers (added by the application)
+//!    (reserved; no system yet)
+//! 8. `Correct`: integrator corrector with body forces (gravity, buoyancy); the clock
+//! 9. `Monitor`: stability checks (overlap, non-finite state), kinetic energy
+//! 10. `Output`: writers (added by the application)
 //!
 //! A scene gets only the systems whose `wanted` test passes on its world, so a scene
 //! without inflow, walls or Gear neither runs nor allocates their systems. Adding a model
