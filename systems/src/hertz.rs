@@ -181,30 +181,34 @@ pub fn hertz_contact(
     pair_scale.resize(list.pairs(), 0.0);
     let one = OneMaterial(materials.pairs[0]);
     let (p, s) = (&mut *particles, &mut pair_scale[..]);
-    let span = tracing::info_span!("row_forces").entered();
-    let worst_pair = match (materials.list.len() == 1, restitution) {
-        (true, false) => row_forces::<_, ConstantDamping>(p, &list, &one, s),
-        (true, true) => row_forces::<_, RestitutionDamping>(p, &list, &one, s),
-        (false, false) => row_forces::<_, ConstantDamping>(p, &list, &*materials, s),
-        (false, true) => row_forces::<_, RestitutionDamping>(p, &list, &*materials, s),
+    let worst = match (materials.list.len() == 1, restitution) {
+        (true, false) => both_passes::<_, ConstantDamping>(p, &list, &one, s, walls),
+        (true, true) => both_passes::<_, RestitutionDamping>(p, &list, &one, s, walls),
+        (false, false) => both_passes::<_, ConstantDamping>(p, &list, &*materials, s, walls),
+        (false, true) => both_passes::<_, RestitutionDamping>(p, &list, &*materials, s, walls),
     };
-    let s = &pair_scale[..];
-    drop(span);
-    let _span2 = tracing::info_span!("partner_forces").entered();
-    let worst_wall = match (materials.list.len() == 1, restitution) {
-        (true, false) => partner_and_wall_forces::<_, ConstantDamping>(p, &list, s, &one, walls),
-        (true, true) => partner_and_wall_forces::<_, RestitutionDamping>(p, &list, s, &one, walls),
-        (false, false) => {
-            partner_and_wall_forces::<_, ConstantDamping>(p, &list, s, &*materials, walls)
-        }
-        (false, true) => {
-            partner_and_wall_forces::<_, RestitutionDamping>(p, &list, s, &*materials, walls)
-        }
-    };
-    let worst = deeper(worst_pair, worst_wall);
     health.max_overlap_ratio = worst.0;
     health.max_overlap_particle = worst.1;
     health.run_max_overlap_ratio = health.run_max_overlap_ratio.max(worst.0);
+}
+
+/// The two passes for one material table and damping law.
+fn both_passes<T: PairTable, D: NormalDamping>(
+    particles: &mut Particles,
+    list: &VerletList,
+    table: &T,
+    scale: &mut [f64],
+    walls: Option<(&Walls, &WallList)>,
+) -> (f64, u32) {
+    let rows = {
+        let _span = tracing::info_span!("row_forces").entered();
+        row_forces::<T, D>(particles, list, table, scale)
+    };
+    let _span = tracing::info_span!("partner_forces").entered();
+    deeper(
+        rows,
+        partner_and_wall_forces::<T, D>(particles, list, scale, table, walls),
+    )
 }
 
 /// The deeper of two (overlap ratio, particle id) records; the smaller id on ties.
