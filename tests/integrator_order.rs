@@ -213,15 +213,7 @@ const AFTER: u64 = 120;
 const PHASES: usize = 16;
 
 fn glass() -> ImpactScene {
-    ImpactScene {
-        youngs_modulus: 48e9,
-        poisson_ratio: 0.20,
-        density: 2800.0,
-        radius: 0.010,
-        speed: 10.0,
-        wall: false,
-        damping: "normal_damping = 0.0".into(),
-    }
+    glass_pair("normal_damping = 0.0".into())
 }
 
 /// (x, v) of sphere 0 in mid-contact and after the impact, at dt = base / `refine`, the

@@ -57,18 +57,6 @@ fn aluminium_oxide_on_plane(damping: String, speed: f64) -> ImpactScene {
     }
 }
 
-fn glass_pair(damping: String) -> ImpactScene {
-    ImpactScene {
-        youngs_modulus: 48e9,
-        poisson_ratio: 0.20,
-        density: 2800.0,
-        radius: 0.010,
-        speed: 10.0,
-        wall: false,
-        damping,
-    }
-}
-
 const E_IN: [f64; 9] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
 
 #[test]

@@ -379,3 +379,18 @@ pub fn step_through_contact(
         "no complete contact within {max_steps} steps (start {start:?}, end {end:?}, gap {previous:e})"
     );
 }
+
+/// The glass pair of Chung & Ooi (2011, Granular Matter 13:643-656) test 1: R = 0.010 m,
+/// head-on at +-10 m/s, E = 48 GPa, nu = 0.20, rho = 2800 kg/m^3; `damping` is the
+/// material's damping line.
+pub fn glass_pair(damping: String) -> ImpactScene {
+    ImpactScene {
+        youngs_modulus: 48e9,
+        poisson_ratio: 0.20,
+        density: 2800.0,
+        radius: 0.010,
+        speed: 10.0,
+        wall: false,
+        damping,
+    }
+}
