@@ -12,9 +12,11 @@ pub trait PerParticle: Send + Sync + 'static {
     fn bytes_per_row(&self) -> usize;
 }
 
-/// Gather `col` through `perm` (`new[k] = old[perm[k]]`).
-pub fn permute_column<T: Copy>(col: &mut Vec<T>, perm: &[u32]) {
-    let permuted: Vec<T> = perm.iter().map(|&k| col[k as usize]).collect();
+/// Gather `col` through `perm` (`new[k] = old[perm[k]]`), in parallel.
+pub fn permute_column<T: Copy + Send + Sync>(col: &mut Vec<T>, perm: &[u32]) {
+    use rayon::prelude::*;
+    let old = &*col;
+    let permuted: Vec<T> = perm.par_iter().map(|&k| old[k as usize]).collect();
     *col = permuted;
 }
 
