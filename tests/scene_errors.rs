@@ -125,6 +125,59 @@ fn bad_scenes_exit_2_naming_file_and_field() {
     }
 }
 
+/// Checks of wall and inflow values that the types cannot express: NaN or out-of-order
+/// numbers, negative jitter, an inflow region narrower than its particles.
+#[test]
+fn bad_wall_and_inflow_values_exit_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let cylinder = "\n[[walls]]\ntype = \"cylinder\"\nmaterial = \"steel\"\naxis = \"z\"\ncenter = [0.0, 0.0]\nradius = 0.5\n";
+    let inflow = "\n[[inflows]]\nmaterial = \"steel\"\nrate = 100.0\ntotal = 10\nradii = [0.005]\nfractions = [1.0]\n\
+                  region = { type = \"cylinder\", center = [0.0, 0.0], radius = 0.1, bottom = 0.1, top = 0.2 }\n";
+    let with = |extra: &str, from: &str, to: &str| format!("{GOOD}{}", extra.replacen(from, to, 1));
+    let cases = [
+        (
+            "nan_center.toml",
+            with(cylinder, "center = [0.0, 0.0]", "center = [nan, 0.0]"),
+            "walls[1].center",
+        ),
+        (
+            "nan_top.toml",
+            with(
+                cylinder,
+                "radius = 0.5\n",
+                "radius = 0.5\nbottom = 0.0\ntop = nan\n",
+            ),
+            "walls[1].top",
+        ),
+        (
+            "negative_jitter.toml",
+            with(inflow, "total = 10", "total = 10\nvelocity_jitter = -1.0"),
+            "inflows[0].velocity_jitter",
+        ),
+        (
+            "stop_before_start.toml",
+            with(inflow, "total = 10", "total = 10\nstart = 0.5\nstop = 0.1"),
+            "inflows[0].stop",
+        ),
+        (
+            "narrow_region.toml",
+            with(inflow, "radius = 0.1,", "radius = 0.004,"),
+            "inflows[0].region.radius",
+        ),
+    ];
+    // The unedited additions are accepted: the cases fail for the edited value alone.
+    for extra in [cylinder, inflow] {
+        let path = write_scene(d, "base.toml", &format!("{GOOD}{extra}"));
+        let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 0, "{stderr}");
+    }
+    for (name, text, field) in &cases {
+        let path = write_scene(d, name, text);
+        rejected(d, &path, &[], field);
+    }
+}
+
 #[test]
 fn bad_set_overrides_exit_2_naming_file_and_key() {
     let dir = tempfile::tempdir().expect("temp dir");

@@ -30,7 +30,7 @@ pub struct Inflow {
     pub fractions: Vec<f64>,
     pub velocity: [f64; 3],
     pub velocity_jitter: f64,
-    /// Particles inserted so far and particles owed (fractional backlog).
+    /// Particles inserted so far, the time of the next batch, and the placement RNG state.
     pub inserted: u64,
     pub next_time: f64,
     pub rng_state: u64,

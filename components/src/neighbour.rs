@@ -32,8 +32,6 @@ pub struct VerletList {
     pub stale: bool,
     pub builds: u64,
     pub sorts: u64,
-    /// Largest radius present at the last rebuild.
-    pub max_radius: f64,
     /// Upper bound of any particle's displacement since the last rebuild, from the
     /// integrators' [`StepMotion`]; the exact check runs only when it exceeds skin/2.
     pub motion_bound: f64,

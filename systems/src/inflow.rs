@@ -54,7 +54,8 @@ pub fn inflow_insertion(
         }
         let sites = free_sites(flow, &particles, walls.as_deref());
         let density = materials.list[flow.material as usize].density;
-        for (k, site) in sites.into_iter().take(want).enumerate() {
+        let before = flow.inserted;
+        for site in sites.into_iter().take(want) {
             let radius = draw_radius(flow);
             let j = flow.velocity_jitter;
             let mut vel = flow.velocity;
@@ -72,8 +73,9 @@ pub fn inflow_insertion(
             });
             *next_id += 1;
             flow.inserted += 1;
-            list.stale |= k == 0;
         }
+        // New particles are in no list yet.
+        list.stale |= flow.inserted > before;
     }
 }
 

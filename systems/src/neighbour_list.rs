@@ -78,7 +78,6 @@ pub fn verlet_list(
     list.stale = false;
     list.builds += 1;
     list.motion_bound = 0.0;
-    list.max_radius = grid.max_radius;
 }
 
 /// Largest squared displacement of any particle since the last rebuild.
