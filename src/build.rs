@@ -7,7 +7,7 @@ use grainflow_components::*;
 use grainflow_systems::inflow::next_f64;
 use grainflow_systems::walls::{wall_contains, wall_distance};
 
-use crate::scene::{Axis, RegionSpec, Scene, SceneError, WallSpec};
+use crate::scene::{Axis, RegionSpec, Scene, SceneError, SurfaceSpec, WallSpec};
 
 /// The pair table: E* from both materials, damping laws averaged when both materials use
 /// the same law.
@@ -41,6 +41,129 @@ pub fn restitution_factor(e: f64) -> f64 {
         l / (l * l + std::f64::consts::PI.powi(2)).sqrt()
     };
     -2.0 * (5.0f64 / 6.0).sqrt() * beta
+}
+
+/// The contact laws one material (or interaction) gives, defaults filled in: friction
+/// with mu_d = mu_s, Mindlin stiffness and no damping unless given; rolling with the
+/// default stiffness and no damping unless given.
+fn surface_law(v: &SurfaceSpec, eight_g_star: f64) -> ContactLaw {
+    ContactLaw {
+        friction: v.friction.map(|mu_s| FrictionLaw {
+            static_coefficient: mu_s,
+            dynamic_coefficient: v.dynamic_friction.unwrap_or(mu_s),
+            stiffness: v.tangential_stiffness.map_or(
+                TangentialStiffness::Mindlin(eight_g_star),
+                TangentialStiffness::Constant,
+            ),
+            damping: v.tangential_damping.unwrap_or(0.0),
+        }),
+        rolling: v.rolling_friction.map(|mu_r| RollingLaw {
+            coefficient: mu_r,
+            stiffness: v.rolling_stiffness,
+            damping: v.rolling_damping.unwrap_or(0.0),
+        }),
+        adhesion: v.work_of_adhesion.map(|work| AdhesionLaw { work }),
+    }
+}
+
+/// 8 G* of a material pair (Mindlin 1949): 1/G* = (2 - nu_a)/G_a + (2 - nu_b)/G_b,
+/// G = E / (2 (1 + nu)).
+pub fn eight_g_star(a: &Material, b: &Material) -> f64 {
+    let g = |m: &Material| m.youngs_modulus / (2.0 * (1.0 + m.poisson_ratio));
+    8.0 / ((2.0 - a.poisson_ratio) / g(a) + (2.0 - b.poisson_ratio) / g(b))
+}
+
+/// Mix two materials' laws into the pair's: where both give a model, its coefficients,
+/// damping and constant stiffnesses are the means (Mindlin when either uses it), the work
+/// of adhesion the geometric mean sqrt(W_a W_b); where one gives it, that one's.
+fn mix_laws(a: ContactLaw, b: ContactLaw) -> ContactLaw {
+    fn either<T>(a: Option<T>, b: Option<T>, both: impl Fn(T, T) -> T) -> Option<T> {
+        match (a, b) {
+            (Some(x), Some(y)) => Some(both(x, y)),
+            (x, y) => x.or(y),
+        }
+    }
+    let mean = |x: f64, y: f64| 0.5 * (x + y);
+    ContactLaw {
+        friction: either(a.friction, b.friction, |x, y| FrictionLaw {
+            static_coefficient: mean(x.static_coefficient, y.static_coefficient),
+            dynamic_coefficient: mean(x.dynamic_coefficient, y.dynamic_coefficient),
+            stiffness: match (x.stiffness, y.stiffness) {
+                (TangentialStiffness::Constant(p), TangentialStiffness::Constant(q)) => {
+                    TangentialStiffness::Constant(mean(p, q))
+                }
+                (TangentialStiffness::Mindlin(g), _) | (_, TangentialStiffness::Mindlin(g)) => {
+                    TangentialStiffness::Mindlin(g)
+                }
+            },
+            damping: mean(x.damping, y.damping),
+        }),
+        rolling: either(a.rolling, b.rolling, |x, y| RollingLaw {
+            coefficient: mean(x.coefficient, y.coefficient),
+            stiffness: either(x.stiffness, y.stiffness, mean),
+            damping: mean(x.damping, y.damping),
+        }),
+        adhesion: either(a.adhesion, b.adhesion, |x, y| AdhesionLaw {
+            work: (x.work * y.work).sqrt(),
+        }),
+    }
+}
+
+/// The pair table of contact laws: mixed from the materials, then each `[[interactions]]`
+/// entry replaces the models it gives (all of a model's fields come from the entry).
+/// `None` when no pair uses friction, rolling resistance or adhesion.
+pub fn contact_laws(scene: &Scene, materials: &[Material]) -> Option<ContactLaws> {
+    let n = materials.len();
+    let mut pairs = Vec::with_capacity(n * n);
+    for (a, ma) in materials.iter().enumerate() {
+        for (b, mb) in materials.iter().enumerate() {
+            let g8 = eight_g_star(ma, mb);
+            let mut law = mix_laws(
+                surface_law(&scene.materials[a].surface(), g8),
+                surface_law(&scene.materials[b].surface(), g8),
+            );
+            for i in &scene.interactions {
+                let names = [&ma.name, &mb.name];
+                if names == [&i.materials[0], &i.materials[1]]
+                    || names == [&i.materials[1], &i.materials[0]]
+                {
+                    let given = surface_law(&i.surface(), g8);
+                    law.friction = given.friction.or(law.friction);
+                    law.rolling = given.rolling.or(law.rolling);
+                    law.adhesion = given.adhesion.or(law.adhesion);
+                }
+            }
+            pairs.push(law);
+        }
+    }
+    if pairs.iter().all(|l| *l == ContactLaw::default()) {
+        return None;
+    }
+    Some(ContactLaws {
+        materials: n,
+        layout: HistoryLayout::for_laws(&pairs),
+        pairs,
+    })
+}
+
+/// Largest JKR critical separation delta_s over the adhesive pairs, with R* at most
+/// `r_max` (delta_s grows as R*^(1/3)): the Verlet skin must exceed it, so that a
+/// stretched adhesive contact stays listed.
+pub fn largest_critical_separation(laws: &ContactLaws, pairs: &[PairParams], r_max: f64) -> f64 {
+    laws.pairs
+        .iter()
+        .zip(pairs)
+        .filter_map(|(law, p)| {
+            law.adhesion.map(|a| {
+                grainflow_systems::jkr::Jkr {
+                    e_star: 0.75 * p.hertz_factor,
+                    r_eff: r_max,
+                    work: a.work,
+                }
+                .critical_separation()
+            })
+        })
+        .fold(0.0, f64::max)
 }
 
 fn unit(v: [f64; 3]) -> [f64; 3] {
@@ -236,6 +359,22 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         }
     }
     let r_max = largest_radius(scene, &particles);
+    let laws = contact_laws(scene, &materials_list);
+    let adhesive_reach = laws
+        .as_ref()
+        .map_or(0.0, |l| largest_critical_separation(l, &pairs, r_max));
+    let skin = match scene.neighbour.skin {
+        Some(skin) if skin <= adhesive_reach => {
+            return Err(err(
+                "neighbour.skin".into(),
+                format!(
+                    "expected a skin > {adhesive_reach:.3e} m, the largest JKR critical separation of the scene's adhesive pairs (a stretched adhesive contact must stay in the Verlet list), got {skin}"
+                ),
+            ))
+        }
+        Some(skin) => skin,
+        None => (0.2 * r_max.max(f64::MIN_POSITIVE)).max(2.0 * adhesive_reach),
+    };
     let mut world = World::new();
     world.insert_resource(SimClock::new(scene.simulation.dt));
     world.insert_resource(Materials {
@@ -244,10 +383,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
     });
     world.insert_resource(body);
     world.insert_resource(NeighbourSettings {
-        skin: scene
-            .neighbour
-            .skin
-            .unwrap_or(0.2 * r_max.max(f64::MIN_POSITIVE)),
+        skin,
         sort_every: scene.neighbour.sort_every.unwrap_or(1),
     });
     world.insert_resource(VerletList {
@@ -283,6 +419,42 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             state.resize_rows(particles.len());
             world.insert_resource(state);
         }
+    }
+    if let Some(laws) = laws {
+        let width = laws.layout.width;
+        world.insert_resource(ContactHistory {
+            width,
+            values: Vec::new(),
+        });
+        if world.contains_resource::<Walls>() {
+            world.insert_resource(WallHistory {
+                width,
+                ..Default::default()
+            });
+        }
+        if laws.has_torques() {
+            let kind = *world.resource::<IntegratorKind>();
+            let mut rotation = Rotation {
+                aux: vec![Default::default(); grainflow_systems::rotation::aux_columns(kind)],
+                ..Default::default()
+            };
+            rotation.resize_rows(particles.len());
+            world.insert_resource(rotation);
+        }
+        world.insert_resource(laws);
+    }
+    if scene.spheres.iter().any(|s| s.fixed) {
+        let mut clamped = Clamped::default();
+        clamped.resize_rows(particles.len());
+        // Spheres come first in load order, so sphere k is row k.
+        for (k, sphere) in scene.spheres.iter().enumerate() {
+            clamped.held[k] = sphere.fixed;
+            for d in 0..3 {
+                clamped.origin[d][k] = sphere.position[d];
+                clamped.velocity[d][k] = sphere.velocity[d];
+            }
+        }
+        world.insert_resource(clamped);
     }
     if !scene.inflows.is_empty() {
         let mut seed = scene.simulation.seed ^ 0x005E_ED0F_1F10;

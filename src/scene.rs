@@ -54,6 +54,9 @@ pub struct Scene {
     pub lammps: Vec<LammpsSpec>,
     #[serde(default)]
     pub inflows: Vec<InflowSpec>,
+    /// Contact-law values of a material pair, overriding those mixed from both materials.
+    #[serde(default)]
+    pub interactions: Vec<InteractionSpec>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -130,6 +133,102 @@ pub struct MaterialSpec {
     pub normal_damping: Option<f64>,
     /// Coefficient of restitution (alternative to `normal_damping`).
     pub restitution: Option<f64>,
+    /// Static friction coefficient mu_s (Coulomb friction with a tangential spring).
+    pub friction: Option<f64>,
+    /// Dynamic friction coefficient mu_d (default: mu_s).
+    pub dynamic_friction: Option<f64>,
+    /// Tangential spring stiffness c_s, N/m (default: Mindlin 8 G* a).
+    pub tangential_stiffness: Option<f64>,
+    /// Tangential damping d_s, N s/m (default 0).
+    pub tangential_damping: Option<f64>,
+    /// Rolling friction coefficient mu_r: rolling torque capped at mu_r R* F_n.
+    pub rolling_friction: Option<f64>,
+    /// Rolling stiffness c_r, N/m (default 2.25 mu_r^2 k_n, k_n = 2 E* a).
+    pub rolling_stiffness: Option<f64>,
+    /// Rolling damping d_r, N s/m (default 0).
+    pub rolling_damping: Option<f64>,
+    /// Work of adhesion W, J/m^2 (JKR adhesion).
+    pub work_of_adhesion: Option<f64>,
+}
+
+/// The contact-law fields of a material or of an interaction.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SurfaceSpec {
+    pub friction: Option<f64>,
+    pub dynamic_friction: Option<f64>,
+    pub tangential_stiffness: Option<f64>,
+    pub tangential_damping: Option<f64>,
+    pub rolling_friction: Option<f64>,
+    pub rolling_stiffness: Option<f64>,
+    pub rolling_damping: Option<f64>,
+    pub work_of_adhesion: Option<f64>,
+}
+
+impl SurfaceSpec {
+    /// Names and values, in scene-file order.
+    pub fn fields(&self) -> [(&'static str, Option<f64>); 8] {
+        [
+            ("friction", self.friction),
+            ("dynamic_friction", self.dynamic_friction),
+            ("tangential_stiffness", self.tangential_stiffness),
+            ("tangential_damping", self.tangential_damping),
+            ("rolling_friction", self.rolling_friction),
+            ("rolling_stiffness", self.rolling_stiffness),
+            ("rolling_damping", self.rolling_damping),
+            ("work_of_adhesion", self.work_of_adhesion),
+        ]
+    }
+}
+
+macro_rules! surface_of {
+    ($s:expr) => {
+        SurfaceSpec {
+            friction: $s.friction,
+            dynamic_friction: $s.dynamic_friction,
+            tangential_stiffness: $s.tangential_stiffness,
+            tangential_damping: $s.tangential_damping,
+            rolling_friction: $s.rolling_friction,
+            rolling_stiffness: $s.rolling_stiffness,
+            rolling_damping: $s.rolling_damping,
+            work_of_adhesion: $s.work_of_adhesion,
+        }
+    };
+}
+
+impl MaterialSpec {
+    pub fn surface(&self) -> SurfaceSpec {
+        surface_of!(self)
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InteractionSpec {
+    /// The two materials of the pair (in either order; the same name twice for a
+    /// material with itself).
+    pub materials: [String; 2],
+    /// Static friction coefficient mu_s (Coulomb friction with a tangential spring).
+    pub friction: Option<f64>,
+    /// Dynamic friction coefficient mu_d (default: mu_s).
+    pub dynamic_friction: Option<f64>,
+    /// Tangential spring stiffness c_s, N/m (default: Mindlin 8 G* a).
+    pub tangential_stiffness: Option<f64>,
+    /// Tangential damping d_s, N s/m (default 0).
+    pub tangential_damping: Option<f64>,
+    /// Rolling friction coefficient mu_r: rolling torque capped at mu_r R* F_n.
+    pub rolling_friction: Option<f64>,
+    /// Rolling stiffness c_r, N/m (default 2.25 mu_r^2 k_n, k_n = 2 E* a).
+    pub rolling_stiffness: Option<f64>,
+    /// Rolling damping d_r, N s/m (default 0).
+    pub rolling_damping: Option<f64>,
+    /// Work of adhesion W, J/m^2 (JKR adhesion).
+    pub work_of_adhesion: Option<f64>,
+}
+
+impl InteractionSpec {
+    pub fn surface(&self) -> SurfaceSpec {
+        surface_of!(self)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -201,6 +300,10 @@ pub struct SphereSpec {
     pub velocity: [f64; 3],
     #[serde(default)]
     pub angular_velocity: [f64; 3],
+    /// Kinematic particle: moves with its constant `velocity`, never rotates, whatever the
+    /// forces.
+    #[serde(default)]
+    pub fixed: bool,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -425,6 +528,60 @@ fn known_material(scene: &Scene, field: String, name: &str) -> Result<(), Invali
     }
 }
 
+/// Contact-law fields: ranges, and no model parameter without its model.
+fn validate_surface(v: &SurfaceSpec, at: &str) -> Result<(), Invalid> {
+    let f = |name: &str| format!("{at}.{name}");
+    for (name, value) in v.fields() {
+        match value {
+            Some(x) if !(x.is_finite() && x >= 0.0) => {
+                return Err((f(name), format!("expected a finite number >= 0, got {x}")))
+            }
+            _ => {}
+        }
+    }
+    for (name, value) in [
+        ("tangential_stiffness", v.tangential_stiffness),
+        ("rolling_stiffness", v.rolling_stiffness),
+        ("work_of_adhesion", v.work_of_adhesion),
+    ] {
+        if let Some(x) = value {
+            positive(f(name), x)?;
+        }
+    }
+    let needs = |name: &str, value: Option<f64>, model: Option<f64>, model_name: &str| {
+        if value.is_some() && model.is_none() {
+            Err((
+                f(name),
+                format!("has no effect without `{model_name}`: give `{model_name}` too"),
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    for (name, value) in [
+        ("dynamic_friction", v.dynamic_friction),
+        ("tangential_stiffness", v.tangential_stiffness),
+        ("tangential_damping", v.tangential_damping),
+    ] {
+        needs(name, value, v.friction, "friction")?;
+    }
+    for (name, value) in [
+        ("rolling_stiffness", v.rolling_stiffness),
+        ("rolling_damping", v.rolling_damping),
+    ] {
+        needs(name, value, v.rolling_friction, "rolling_friction")?;
+    }
+    if let (Some(mu_s), Some(mu_d)) = (v.friction, v.dynamic_friction) {
+        if mu_d > mu_s {
+            return Err((
+                f("dynamic_friction"),
+                format!("expected mu_d <= mu_s = {mu_s}, got {mu_d}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Range and consistency checks that the types cannot express.
 fn validate(s: &Scene) -> Result<(), Invalid> {
     let sim = &s.simulation;
@@ -483,9 +640,23 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
             }
             _ => {}
         }
+        validate_surface(&m.surface(), &format!("materials[{k}]"))?;
         if s.materials[..k].iter().any(|o| o.name == m.name) {
             return Err((f("name"), format!("material `{}` is defined twice", m.name)));
         }
+    }
+    for (k, i) in s.interactions.iter().enumerate() {
+        for (n, name) in i.materials.iter().enumerate() {
+            known_material(s, format!("interactions[{k}].materials[{n}]"), name)?;
+        }
+        let surface = i.surface();
+        if surface.fields().iter().all(|(_, v)| v.is_none()) {
+            return Err((
+                format!("interactions[{k}]"),
+                "expected at least one contact-law field (friction, rolling_friction, work_of_adhesion, ...)".into(),
+            ));
+        }
+        validate_surface(&surface, &format!("interactions[{k}]"))?;
     }
     for (k, w) in s.walls.iter().enumerate() {
         let f = |name: &str| format!("walls[{k}].{name}");

@@ -7,21 +7,28 @@
 //! known to the neighbour-list or insertion systems.
 
 pub mod clock;
+pub mod contact_law;
 pub mod health;
 pub mod inflow;
 pub mod integrator;
 pub mod material;
 pub mod neighbour;
 pub mod particles;
+pub mod rotation;
 pub mod walls;
 
 pub use clock::SimClock;
+pub use contact_law::{
+    AdhesionLaw, ContactLaw, ContactLaws, FrictionLaw, HistoryLayout, RollingLaw,
+    TangentialStiffness, WallHistory,
+};
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, VerletState};
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
 pub use neighbour::{ContactHistory, NeighbourSettings, Reorder, StepMotion, VerletList, WallList};
 pub use particles::{NewParticle, Particles, PerParticle};
+pub use rotation::{Clamped, Rotation};
 pub use walls::{Wall, WallShape, Walls};
 
 /// Three coordinate columns of one per-particle vector quantity (x, y, z).

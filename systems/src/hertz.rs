@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use wide::{f64x4, CmpGt, CmpLt};
 
 use crate::walls::wall_distance;
-use crate::CHUNK;
+use crate::{row_chunks, CHUNK};
 
 /// The arithmetic of the contact formulas, for scalars and for SIMD lanes.
 pub trait Real:
@@ -234,18 +234,6 @@ fn lane_sum(v: f64x4) -> f64 {
     (a[0] + a[1]) + (a[2] + a[3])
 }
 
-/// Split `scale` into the pair ranges of consecutive chunks of `CHUNK` rows.
-fn pair_chunks<'a>(mut scale: &'a mut [f64], start: &[u32], n: usize) -> Vec<&'a mut [f64]> {
-    let mut out = Vec::with_capacity(n.div_ceil(CHUNK));
-    for c in 0..n.div_ceil(CHUNK) {
-        let len = (start[((c + 1) * CHUNK).min(n)] - start[c * CHUNK]) as usize;
-        let (head, tail) = std::mem::take(&mut scale).split_at_mut(len);
-        out.push(head);
-        scale = tail;
-    }
-    out
-}
-
 /// Pass 1: the pairs of each particle's own row. Writes the row sums into the force
 /// columns and s_k for every pair; returns the largest overlap over the smaller radius of
 /// its pair, with the id of the pair's row owner.
@@ -279,7 +267,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
         fx.par_chunks_mut(CHUNK),
         fy.par_chunks_mut(CHUNK),
         fz.par_chunks_mut(CHUNK),
-        pair_chunks(scale, start, n),
+        row_chunks(scale, start, n, 1),
     )
         .into_par_iter()
         .enumerate()

@@ -7,11 +7,17 @@
 //! integer `max`: for non-negative floats the bit patterns order like the numbers, and the
 //! integer reduction vectorises where `f64::max` (with its NaN rule) would not.
 
+pub mod clamp;
+pub mod friction;
 pub mod gear;
+pub mod granular;
 pub mod hertz;
 pub mod inflow;
+pub mod jkr;
 pub mod monitor;
 pub mod neighbour_list;
+pub mod rolling;
+pub mod rotation;
 pub mod rows;
 pub mod schedule;
 pub mod verlet;
@@ -40,4 +46,23 @@ pub fn body_acceleration_column(
     } else {
         BodyColumn::PerMaterial(g)
     }
+}
+
+/// Split `values` (`width` values per entry of a compressed-row list whose row `i` holds
+/// entries `start[i]..start[i+1]`) into the ranges of consecutive chunks of `CHUNK` rows,
+/// for `n` rows.
+pub fn row_chunks<'a, T>(
+    mut values: &'a mut [T],
+    start: &[u32],
+    n: usize,
+    width: usize,
+) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(n.div_ceil(CHUNK));
+    for c in 0..n.div_ceil(CHUNK) {
+        let len = (start[((c + 1) * CHUNK).min(n)] - start[c * CHUNK]) as usize * width;
+        let (head, tail) = std::mem::take(&mut values).split_at_mut(len);
+        out.push(head);
+        values = tail;
+    }
+    out
 }

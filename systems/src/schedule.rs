@@ -9,10 +9,13 @@
 //! 4. `NeighbourList`: cell index + half Verlet list, rebuilt when a particle may have
 //!    moved skin/2; particles re-sorted in cell order; wall candidate lists
 //! 5. `Reorder`: every other per-particle block follows the re-sort
-//! 6. `Contact`: contact forces (Hertz normal + damping, walls)
+//! 6. `Contact`: contact forces: Hertz normal + damping between particles and with walls
+//!    (`hertz_contact`), or, when some material pair has friction, rolling resistance or
+//!    adhesion, the same plus those models with per-contact history (`granular_contact`)
 //! 7. `HydrodynamicSampling`, `VelocityBlending`, `MultigridFluid`: the fluid coupling
 //!    (reserved; no system yet)
-//! 8. `Correct`: integrator corrector with body forces (gravity, buoyancy); the clock
+//! 8. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation under
+//!    contact torques; the clock; kinematic (fixed) particles put back on their path
 //! 9. `Monitor`: stability checks (overlap, non-finite state), kinetic energy
 //! 10. `Output`: writers (added by the application)
 //!
@@ -23,7 +26,13 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use grainflow_components::{GearState, IntegratorKind, VerletState, Walls};
 
-use crate::{gear, hertz, inflow, monitor, neighbour_list, rows, verlet, walls};
+use crate::clamp::has_clamped;
+use crate::granular::has_contact_laws;
+use crate::rotation::has_rotation;
+use crate::{
+    clamp, gear, granular, hertz, inflow, monitor, neighbour_list, rotation, rows, verlet, walls,
+};
+use grainflow_components::{Clamped, Rotation};
 
 /// The ordered phases of a DEM step.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -94,6 +103,18 @@ fn uses_verlet(w: &World) -> bool {
 fn has_walls(w: &World) -> bool {
     w.contains_resource::<Walls>()
 }
+fn frictionless(w: &World) -> bool {
+    !has_contact_laws(w)
+}
+fn wall_history(w: &World) -> bool {
+    has_contact_laws(w) && has_walls(w)
+}
+fn gear_rotation(w: &World) -> bool {
+    uses_gear(w) && has_rotation(w)
+}
+fn verlet_rotation(w: &World) -> bool {
+    uses_verlet(w) && has_rotation(w)
+}
 fn has_removable_walls(w: &World) -> bool {
     w.get_resource::<Walls>()
         .is_some_and(|ws| ws.list.iter().any(|x| x.remove_at.is_some()))
@@ -138,6 +159,24 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "sync_rows<Rotation>",
+        set: StepSet::SyncRows,
+        phase: Phase::Both,
+        wanted: has_rotation,
+        add: |s, set| {
+            s.add_systems(rows::sync_rows::<Rotation>.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "sync_rows<Clamped>",
+        set: StepSet::SyncRows,
+        phase: Phase::Both,
+        wanted: has_clamped,
+        add: |s, set| {
+            s.add_systems(rows::sync_rows::<Clamped>.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "gear_predict",
         set: StepSet::Predict,
         phase: Phase::Step,
@@ -153,6 +192,33 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: uses_verlet,
         add: |s, set| {
             s.add_systems(verlet::verlet_predict.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "gear_rotation_predict",
+        set: StepSet::Predict,
+        phase: Phase::Step,
+        wanted: gear_rotation,
+        add: |s, set| {
+            s.add_systems(rotation::gear_rotation_predict.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "verlet_rotation_predict",
+        set: StepSet::Predict,
+        phase: Phase::Step,
+        wanted: verlet_rotation,
+        add: |s, set| {
+            s.add_systems(rotation::verlet_rotation_predict.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "hold_clamped_predicted",
+        set: StepSet::Predict,
+        phase: Phase::Step,
+        wanted: has_clamped,
+        add: |s, set| {
+            s.add_systems(clamp::hold_clamped_predicted.in_set(set));
         },
     },
     SystemEntry {
@@ -174,6 +240,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "carry_wall_history",
+        set: StepSet::NeighbourList,
+        phase: Phase::Both,
+        wanted: wall_history,
+        add: |s, set| {
+            s.add_systems(granular::carry_wall_history.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "permute_rows<GearState>",
         set: StepSet::Reorder,
         phase: Phase::Both,
@@ -192,12 +267,39 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "permute_rows<Rotation>",
+        set: StepSet::Reorder,
+        phase: Phase::Both,
+        wanted: has_rotation,
+        add: |s, set| {
+            s.add_systems(rows::permute_rows::<Rotation>.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "permute_rows<Clamped>",
+        set: StepSet::Reorder,
+        phase: Phase::Both,
+        wanted: has_clamped,
+        add: |s, set| {
+            s.add_systems(rows::permute_rows::<Clamped>.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "hertz_contact",
         set: StepSet::Contact,
         phase: Phase::Both,
-        wanted: always,
+        wanted: frictionless,
         add: |s, set| {
             s.add_systems(hertz::hertz_contact.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "granular_contact",
+        set: StepSet::Contact,
+        phase: Phase::Both,
+        wanted: has_contact_laws,
+        add: |s, set| {
+            s.add_systems(granular::granular_contact.in_set(set));
         },
     },
     SystemEntry {
@@ -228,12 +330,48 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "gear_rotation_correct",
+        set: StepSet::Correct,
+        phase: Phase::Step,
+        wanted: gear_rotation,
+        add: |s, set| {
+            s.add_systems(rotation::gear_rotation_correct.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "gear_rotation_start",
+        set: StepSet::Correct,
+        phase: Phase::Startup,
+        wanted: gear_rotation,
+        add: |s, set| {
+            s.add_systems(rotation::gear_rotation_start.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "verlet_rotation_correct",
+        set: StepSet::Correct,
+        phase: Phase::Step,
+        wanted: verlet_rotation,
+        add: |s, set| {
+            s.add_systems(rotation::verlet_rotation_correct.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "advance_clock",
         set: StepSet::Correct,
         phase: Phase::Step,
         wanted: always,
         add: |s, set| {
             s.add_systems(monitor::advance_clock.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "hold_clamped",
+        set: StepSet::Correct,
+        phase: Phase::Both,
+        wanted: has_clamped,
+        add: |s, set| {
+            s.add_systems(clamp::hold_clamped.in_set(set));
         },
     },
     SystemEntry {
