@@ -287,7 +287,7 @@ impl Context<'_> {
                         let d2 = gap.length_squared();
                         // Apart beyond any adhesive range: nothing to compute.
                         let reach = ri + rj;
-                        if d2 >= reach * reach && hist.iter().all(|&h| h == 0.0) {
+                        if d2 > reach * reach && hist.iter().all(|&h| h == 0.0) {
                             results[local] = [DVec3::ZERO; 2];
                             continue;
                         }
