@@ -5,16 +5,22 @@
 //!   cargo bench --bench dem
 //!
 //! Figures are particles per second (criterion's "elements"); the whole-step throughput
-//! against LAMMPS is measured by `scripts/bench-vs-lammps.sh`.
+//! against LAMMPS is measured by `scripts/bench-vs-lammps.sh`. The `friction_rolling`
+//! entries run the same packing with Coulomb friction (mu_s = 0.5) and rolling
+//! resistance (mu_r = 0.1): the contact system with history (`granular_contact`) and the
+//! rotation integrator, against the frictionless `hertz_contact` path.
 use std::path::Path;
 
 use bevy_ecs::system::RunSystemOnce;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use grainflow::run::Simulation;
 use grainflow_components::{Particles, VerletList};
-use grainflow_systems::{gear, hertz, neighbour_list, verlet};
+use grainflow_systems::{gear, granular, hertz, neighbour_list, verlet};
 
-fn dense_block(integrator: &str) -> Simulation {
+/// The material lines that turn friction and rolling resistance on.
+const FRICTION_ROLLING: &str = "friction = 0.5\nrolling_friction = 0.1";
+
+fn dense_block(integrator: &str, surface: &str) -> Simulation {
     let scene = format!(
         r#"
 [simulation]
@@ -28,6 +34,7 @@ name = "grain"
 density = 10.0
 youngs_modulus = 1.0e7
 normal_damping = 1.0e-5
+{surface}
 [[blocks]]
 material = "grain"
 radius = 0.02
@@ -57,7 +64,7 @@ fn bench(c: &mut Criterion) {
             .unwrap();
         let mut group = c.benchmark_group(format!("dem_{threads}_thread"));
         group.sample_size(20);
-        let mut sim = pool.install(|| dense_block("gear"));
+        let mut sim = pool.install(|| dense_block("gear", ""));
         let n = sim.world.resource::<Particles>().len() as u64;
         group.throughput(Throughput::Elements(n));
         group.bench_function(BenchmarkId::new("neighbour_rebuild", n), |b| {
@@ -81,7 +88,27 @@ fn bench(c: &mut Criterion) {
                 })
             })
         });
-        let mut sim = pool.install(|| dense_block("velocity_verlet"));
+        group.bench_function(BenchmarkId::new("full_step_gear", n), |b| {
+            b.iter(|| pool.install(|| sim.step()))
+        });
+        let mut sim = pool.install(|| dense_block("gear", FRICTION_ROLLING));
+        group.bench_function(
+            BenchmarkId::new("contact_forces_friction_rolling", n),
+            |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        sim.world
+                            .run_system_once(granular::granular_contact)
+                            .unwrap()
+                    })
+                })
+            },
+        );
+        group.bench_function(
+            BenchmarkId::new("full_step_gear_friction_rolling", n),
+            |b| b.iter(|| pool.install(|| sim.step())),
+        );
+        let mut sim = pool.install(|| dense_block("velocity_verlet", ""));
         group.bench_function(BenchmarkId::new("verlet_predict_correct", n), |b| {
             b.iter(|| {
                 pool.install(|| {

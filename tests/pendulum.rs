@@ -34,7 +34,9 @@ struct Swing {
 }
 
 fn swing(case: &str, overrides: &[&str]) -> Swing {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases").join(case);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(case);
     let mut overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     overrides.push("simulation.output_interval=0".into());
     let scene = grainflow::scene::load(&path, &overrides).expect("case parses");
@@ -98,7 +100,10 @@ fn adhesion_holds_the_chain_together() {
         "pendulum-adhesion.toml",
         &["materials.0.work_of_adhesion=1e-6"],
     );
-    println!("weakly adhesive chain: largest gap {:.3e} m", weak.largest_gap);
+    println!(
+        "weakly adhesive chain: largest gap {:.3e} m",
+        weak.largest_gap
+    );
     assert!(
         weak.largest_gap > 100.0 * delta_s,
         "without adhesion the chain should fall apart: largest gap {:.3e} m",

@@ -80,7 +80,9 @@ pub struct WallList {
 
 /// The contact store: per-pair history (the tangential spring of a friction model, the
 /// contact state of an adhesion model) kept beside the Verlet list, `width` values per
-/// pair: pair `k` of the list owns `values[k * width..(k + 1) * width]`. Pairs are keyed
+/// pair, in blocks of four pairs (the lanes of the contact kernel): value `c` of pair `k`
+/// is `values[index(k, c)]`, and the four pairs of a block have each value in four
+/// consecutive slots. Pairs are keyed
 /// by the particles' stable ids, so at every rebuild and re-sort the history of a pair that
 /// is still listed moves to its new place; a pair that left the list loses it. Values are
 /// kept for the pair oriented from the lower to the higher stable id, whichever particle
@@ -90,4 +92,20 @@ pub struct WallList {
 pub struct ContactHistory {
     pub width: usize,
     pub values: Vec<f64>,
+}
+
+impl ContactHistory {
+    /// Pairs per block.
+    pub const LANES: usize = 4;
+
+    /// Slot of value `component` of pair `pair`.
+    #[inline(always)]
+    pub fn index(&self, pair: usize, component: usize) -> usize {
+        ((pair / Self::LANES) * self.width + component) * Self::LANES + pair % Self::LANES
+    }
+
+    /// Length of `values` for `pairs` listed pairs (whole blocks).
+    pub fn len_for(&self, pairs: usize) -> usize {
+        pairs.div_ceil(Self::LANES) * Self::LANES * self.width
+    }
 }

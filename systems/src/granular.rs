@@ -11,22 +11,26 @@
 //! displacement, JKR contact flag) lives in the contact store (`ContactHistory` for
 //! pairs, `WallHistory` for walls); a contact that ends has its history reset.
 //!
-//! Like `hertz_contact`, two passes over the half Verlet list: each row owner computes its
-//! pairs once (force on the owner and torque on the partner kept per pair), then every
-//! particle adds the partner halves and its walls, in a fixed order: the result does not
-//! depend on the thread count.
+//! Two passes over the half Verlet list: every pair once, four consecutive pairs at a time
+//! in `f64x4` lanes, with its history stored in blocks of four (the force and both
+//! torques kept per pair); then every particle sums its own pairs, the pairs it is
+//! partner in, and its walls (scalar), in a fixed order: the result does not depend on
+//! the thread count. The model code is written once over [`Real`] and runs in both.
 use bevy_ecs::prelude::*;
-use glam::DVec3;
 use grainflow_components::{
-    ContactHistory, ContactLaw, ContactLaws, HistoryLayout, Materials, PairParams, Particles,
-    Rotation, RunHealth, SimClock, VerletList, WallHistory, WallList, Walls,
+    Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, Particles, Rotation, RunHealth,
+    SimClock, TangentialStiffness, VerletList, WallHistory, WallList, Walls,
 };
 use rayon::prelude::*;
+use wide::{f64x4, CmpGt, CmpLt};
 
-use crate::friction::{coulomb_tangential_force, tangential_stiffness};
+use crate::friction::coulomb_tangential_force;
 use crate::hertz::{hertz_normal_force, ConstantDamping, NormalDamping, RestitutionDamping};
-use crate::jkr::Jkr;
-use crate::rolling::{rolling_resistance_force, rolling_stiffness, rolling_velocity};
+use crate::jkr::{
+    jkr_contact_radius, jkr_critical_separation, jkr_equilibrium_radius, jkr_force_at_radius,
+};
+use crate::real::{Real, V3};
+use crate::rolling::{rolling_resistance_force, rolling_velocity};
 use crate::walls::wall_distance;
 use crate::{row_chunks, CHUNK};
 
@@ -35,119 +39,261 @@ pub fn has_contact_laws(w: &World) -> bool {
     w.contains_resource::<ContactLaws>()
 }
 
-/// One contact seen from particle i: unit normal `n` from j (or the wall) to i, overlap,
+/// The numbers of one material pair's laws, as the kernel uses them (lanes of pairs, or
+/// one pair). A model a pair lacks has zero coefficients: friction and rolling with a
+/// zero cap exert nothing, and W = 0 selects Hertz.
+#[derive(Debug, Clone, Copy)]
+struct Coefficients<T> {
+    /// (4/3) E* and the normal damping coefficient of the damping law.
+    hertz_factor: T,
+    damping: T,
+    mu_s: T,
+    mu_d: T,
+    /// c_s = stiffness_per_radius a + stiffness (Mindlin 8 G* a, or constant).
+    tangential_per_radius: T,
+    tangential_constant: T,
+    tangential_damping: T,
+    mu_r: T,
+    /// c_r = rolling_per_radius a + rolling_constant (2.25 mu_r^2 2 E* a by default).
+    rolling_per_radius: T,
+    rolling_constant: T,
+    rolling_damping: T,
+    work: T,
+}
+
+impl Coefficients<f64> {
+    fn of_pair<D: NormalDamping>(
+        materials: &Materials,
+        laws: &ContactLaws,
+        a: u16,
+        b: u16,
+    ) -> Self {
+        let p = materials.pair(a, b);
+        let law = laws.pair(a, b);
+        let e_star = 0.75 * p.hertz_factor;
+        let (mu_s, mu_d, kt_a, kt_c, d_s) = law.friction.map_or((0.0, 0.0, 0.0, 0.0, 0.0), |f| {
+            let (per_a, constant) = match f.stiffness {
+                TangentialStiffness::Mindlin(eight_g) => (eight_g, 0.0),
+                TangentialStiffness::Constant(c) => (0.0, c),
+            };
+            (
+                f.static_coefficient,
+                f.dynamic_coefficient,
+                per_a,
+                constant,
+                f.damping,
+            )
+        });
+        let (mu_r, kr_a, kr_c, d_r) = law.rolling.map_or((0.0, 0.0, 0.0, 0.0), |r| {
+            let (per_a, constant) = match r.stiffness {
+                Some(c) => (0.0, c),
+                None => (2.25 * r.coefficient * r.coefficient * 2.0 * e_star, 0.0),
+            };
+            (r.coefficient, per_a, constant, r.damping)
+        });
+        Self {
+            hertz_factor: p.hertz_factor,
+            damping: D::coefficient(p),
+            mu_s,
+            mu_d,
+            tangential_per_radius: kt_a,
+            tangential_constant: kt_c,
+            tangential_damping: d_s,
+            mu_r,
+            rolling_per_radius: kr_a,
+            rolling_constant: kr_c,
+            rolling_damping: d_r,
+            work: law.adhesion.map_or(0.0, |a| a.work),
+        }
+    }
+}
+
+impl<T: Real> Coefficients<T> {
+    fn splat(c: &Coefficients<f64>) -> Self {
+        Self::gather(&[c], |_| 0)
+    }
+    /// Lane `l` from `table[index(l)]`.
+    #[inline(always)]
+    fn gather(table: &[&Coefficients<f64>], index: impl Fn(usize) -> usize) -> Self {
+        let lane = |f: fn(&Coefficients<f64>) -> f64| T::from_lanes(|l| f(table[index(l)]));
+        Self {
+            hertz_factor: lane(|c| c.hertz_factor),
+            damping: lane(|c| c.damping),
+            mu_s: lane(|c| c.mu_s),
+            mu_d: lane(|c| c.mu_d),
+            tangential_per_radius: lane(|c| c.tangential_per_radius),
+            tangential_constant: lane(|c| c.tangential_constant),
+            tangential_damping: lane(|c| c.tangential_damping),
+            mu_r: lane(|c| c.mu_r),
+            rolling_per_radius: lane(|c| c.rolling_per_radius),
+            rolling_constant: lane(|c| c.rolling_constant),
+            rolling_damping: lane(|c| c.rolling_damping),
+            work: lane(|c| c.work),
+        }
+    }
+}
+
+/// Contacts seen from particle i: unit normal `n` from j (or the wall) to i, overlap,
 /// R*, (R_j - R_i)/(R_i + R_j), 1/m*, velocity of i relative to j, the surface term
 /// R_i n x w_i + R_j n x w_j of the relative contact velocity, and w_i - w_j.
-struct Geometry {
-    n: DVec3,
-    delta: f64,
-    r_eff: f64,
-    radius_ratio: f64,
-    inv_mass_sum: f64,
-    velocity: DVec3,
-    surface: DVec3,
-    spin: DVec3,
+struct Geometry<T> {
+    n: V3<T>,
+    delta: T,
+    r_eff: T,
+    radius_ratio: T,
+    inv_mass_sum: T,
+    velocity: V3<T>,
+    surface: V3<T>,
+    spin: V3<T>,
 }
 
-/// What a contact exerts: force on i, tangential force F_t, and rolling resistance f_r
-/// (the torque on i is -R_i n x F_t + R* f_r x n).
-struct Exerted {
-    force: DVec3,
-    tangential: DVec3,
-    rolling: DVec3,
+/// Per-contact history in lanes: tangential spring, rolling displacement, JKR flag.
+#[derive(Clone, Copy)]
+struct History<T> {
+    spring: V3<T>,
+    rolling: V3<T>,
+    bond: T,
 }
 
-/// The models of one contact. `hist` is its history row; `flip` = -1 when the row is
-/// stored for the pair oriented the other way (directed values change sign).
-#[inline]
-fn interact<D: NormalDamping>(
-    params: &PairParams,
-    law: &ContactLaw,
+/// What contacts exert, zero in lanes out of contact: force on i, tangential force F_t,
+/// rolling resistance f_r (the torque on i is -R_i n x F_t + R* f_r x n).
+struct Exerted<T: Real> {
+    touching: T::Mask,
+    force: V3<T>,
+    tangential: V3<T>,
+    rolling: V3<T>,
+}
+
+/// The models of a contact (lanes of contacts). `hist` is updated in place; lanes out of
+/// contact get zero history. `flip` is -1 in lanes whose spring is stored for the pair
+/// oriented the other way (the tangential spring is directed; U_r is not).
+#[inline(always)]
+fn interact<T: Real, D: NormalDamping>(
+    c: &Coefficients<T>,
     layout: &HistoryLayout,
-    hist: &mut [f64],
-    flip: f64,
-    c: &Geometry,
-    dt: f64,
-) -> Option<Exerted> {
-    let jkr = law.adhesion.map(|a| Jkr {
-        e_star: 0.75 * params.hertz_factor,
-        r_eff: c.r_eff,
-        work: a.work,
-    });
-    let bonded = layout.bond.is_some_and(|b| hist[b] > 0.0);
-    let touching = match &jkr {
-        Some(jkr) => c.delta >= 0.0 || (bonded && c.delta > -jkr.critical_separation()),
-        None => c.delta > 0.0,
-    };
-    if !touching {
-        hist.fill(0.0);
-        return None;
+    hist: &mut History<T>,
+    flip: T,
+    g: &Geometry<T>,
+    dt: T,
+) -> Exerted<T> {
+    let zero = T::splat(0.0);
+    let mut touching = zero.lt(g.delta);
+    let delta_dot = -g.velocity.dot(g.n);
+    // Hertz: c_n delta^(3/2) + damping, with the contact radius a = sqrt(R* delta).
+    let mut a = (g.r_eff * g.delta.max(zero)).sqrt();
+    let mut f_n = hertz_normal_force::<T, D>(
+        c.hertz_factor,
+        c.damping,
+        a,
+        g.inv_mass_sum,
+        g.delta,
+        delta_dot,
+    );
+    let mut load_offset = zero;
+    let mut bonded = touching;
+    if layout.bond.is_some() {
+        let adhesive = zero.lt(c.work);
+        // Lanes without adhesion get a dummy W (their result is not selected).
+        let work = T::select(adhesive, c.work, T::splat(1.0));
+        let e_star = T::splat(0.75) * c.hertz_factor;
+        let a0 = jkr_equilibrium_radius(e_star, g.r_eff, work);
+        let delta_s = jkr_critical_separation(a0, g.r_eff);
+        let holds = zero.le(g.delta) | (zero.lt(hist.bond) & (-delta_s).lt(g.delta));
+        bonded = adhesive & holds;
+        touching = touching | bonded;
+        // JKR: the JKR force at its contact radius plus the same damping.
+        let a_jkr = jkr_contact_radius(a0, delta_s, g.delta);
+        let pull_off = T::splat(1.5 * std::f64::consts::PI) * work * g.r_eff;
+        let f_jkr = jkr_force_at_radius(a0, pull_off, a_jkr)
+            + D::damping(c.damping, c.hertz_factor, a_jkr, g.inv_mass_sum, delta_dot);
+        a = T::select(adhesive, a_jkr, a);
+        f_n = T::select(adhesive, f_jkr, f_n);
+        // Thornton & Yin (1991): the Coulomb limit of an adhesive contact is
+        // mu (F_n + 2 F_s).
+        load_offset = T::select(adhesive, T::splat(2.0) * pull_off, zero);
     }
-    let delta_dot = -c.velocity.dot(c.n);
-    let coefficient = D::coefficient(params);
-    let (f_n, a, load) = match &jkr {
-        Some(jkr) => {
-            let a = jkr.contact_radius(c.delta);
-            let f = jkr.force_at_radius(a)
-                + D::damping(
-                    coefficient,
-                    params.hertz_factor,
-                    a,
-                    c.inv_mass_sum,
-                    delta_dot,
-                );
-            hist[layout.bond.expect("adhesion has a history slot")] = 1.0;
-            // Thornton & Yin (1991): the Coulomb limit of an adhesive contact is
-            // mu (F_n + 2 F_s).
-            (f, a, (f + 2.0 * jkr.pull_off_force()).max(0.0))
-        }
-        None => {
-            let f = hertz_normal_force::<f64, D>(
-                params.hertz_factor,
-                coefficient,
-                c.r_eff,
-                c.inv_mass_sum,
-                c.delta,
-                delta_dot,
-            );
-            (f, (c.r_eff * c.delta).sqrt(), f.max(0.0))
-        }
-    };
-    let relative = c.velocity + c.surface;
-    let u_t = relative - relative.dot(c.n) * c.n;
-    let mut tangential = DVec3::ZERO;
-    if let (Some(friction), Some(o)) = (&law.friction, layout.spring) {
-        let mut g = flip * DVec3::from_slice(&hist[o..o + 3]);
-        let c_s = tangential_stiffness(friction, a);
-        tangential = coulomb_tangential_force(friction, &mut g, c.n, u_t, load, c_s, dt);
-        (flip * g).write_to_slice(&mut hist[o..o + 3]);
+    let load = (f_n + load_offset).max(zero);
+    let relative = g.velocity + g.surface;
+    let u_t = relative - g.n.scale(relative.dot(g.n));
+    let mut tangential = V3::zero();
+    if layout.spring.is_some() {
+        let mut spring = hist.spring.scale(flip);
+        let c_s = c.tangential_per_radius * a + c.tangential_constant;
+        tangential = coulomb_tangential_force(
+            &mut spring,
+            g.n,
+            u_t,
+            load,
+            [c.mu_s, c.mu_d],
+            c_s,
+            c.tangential_damping,
+            dt,
+        );
+        hist.spring = V3::select(touching, spring.scale(flip), V3::zero());
     }
-    let mut rolling = DVec3::ZERO;
-    if let (Some(law), Some(o)) = (&law.rolling, layout.rolling) {
-        // U_r is the same for both orientations of the pair: no flip.
-        let mut xi = DVec3::from_slice(&hist[o..o + 3]);
-        let u_r = rolling_velocity(c.r_eff, c.spin, c.n, c.radius_ratio, u_t);
-        let c_r = rolling_stiffness(law, 0.75 * params.hertz_factor, a);
-        rolling = rolling_resistance_force(law, &mut xi, c.n, u_r, load, c_r, dt);
-        xi.write_to_slice(&mut hist[o..o + 3]);
+    let mut rolling = V3::zero();
+    if layout.rolling.is_some() {
+        let mut xi = hist.rolling;
+        let u_r = rolling_velocity(g.r_eff, g.spin, g.n, g.radius_ratio, u_t);
+        let c_r = c.rolling_per_radius * a + c.rolling_constant;
+        rolling =
+            rolling_resistance_force(&mut xi, g.n, u_r, load, c.mu_r, c_r, c.rolling_damping, dt);
+        hist.rolling = V3::select(touching, xi, V3::zero());
     }
-    Some(Exerted {
-        force: f_n * c.n + tangential,
-        tangential,
-        rolling,
-    })
+    hist.bond = T::select(bonded, T::splat(1.0), zero);
+    Exerted {
+        touching,
+        force: V3::select(touching, g.n.scale(f_n) + tangential, V3::zero()),
+        tangential: V3::select(touching, tangential, V3::zero()),
+        rolling: V3::select(touching, rolling, V3::zero()),
+    }
 }
 
-/// Per-particle force and torque sums of this step.
-type Sums = [DVec3; 2];
+impl<T: Real> History<T> {
+    /// The history from `value(c)`, the lanes of its component `c` in the layout.
+    #[inline(always)]
+    fn load(layout: &HistoryLayout, value: impl Fn(usize) -> T) -> Self {
+        let v3 = |o: Option<usize>| {
+            o.map_or(V3::zero(), |o| {
+                V3::new(value(o), value(o + 1), value(o + 2))
+            })
+        };
+        Self {
+            spring: v3(layout.spring),
+            rolling: v3(layout.rolling),
+            bond: layout.bond.map_or(T::splat(0.0), value),
+        }
+    }
 
-/// Per-pair result kept for the partner: force on the owner, torque on the partner.
-type PairResult = [DVec3; 2];
+    /// Hand every component `c` of the layout to `put(c, lanes)`.
+    #[inline(always)]
+    fn store(&self, layout: &HistoryLayout, mut put: impl FnMut(usize, T)) {
+        for (o, v) in [(layout.spring, self.spring), (layout.rolling, self.rolling)] {
+            if let Some(o) = o {
+                put(o, v.x);
+                put(o + 1, v.y);
+                put(o + 2, v.z);
+            }
+        }
+        if let Some(o) = layout.bond {
+            put(o, self.bond);
+        }
+    }
+}
+
+/// Per block of four pairs, in lanes: force on the owner (3), torque on the owner (3),
+/// torque on the partner (3).
+type BlockResult = [f64x4; 9];
+
+const LANES: usize = ContactHistory::LANES;
+
+/// Blocks of four pairs per parallel work item.
+const BLOCKS: usize = CHUNK / LANES;
 
 #[allow(clippy::too_many_arguments)]
 pub fn granular_contact(
-    mut pair_results: Local<Vec<PairResult>>,
-    mut sums: Local<Vec<Sums>>,
+    mut block_results: Local<Vec<BlockResult>>,
+    mut unused_torque: Local<Columns>,
     mut particles: ResMut<Particles>,
     rotation: Option<ResMut<Rotation>>,
     list: Res<VerletList>,
@@ -156,15 +302,12 @@ pub fn granular_contact(
     mut history: ResMut<ContactHistory>,
     walls: Option<Res<Walls>>,
     wall_list: Option<Res<WallList>>,
-    wall_history: Option<ResMut<WallHistory>>,
+    mut wall_history: Option<ResMut<WallHistory>>,
     clock: Res<SimClock>,
     mut health: ResMut<RunHealth>,
 ) {
     let _span = tracing::info_span!("granular_contact").entered();
-    let n = particles.len();
-    pair_results.resize(list.pairs(), [DVec3::ZERO; 2]);
-    sums.resize(n, [DVec3::ZERO; 2]);
-    let mut wall_history = wall_history;
+    block_results.resize(list.pairs().div_ceil(LANES), [f64x4::ZERO; 9]);
     let walls = match (
         walls.as_deref(),
         wall_list.as_deref(),
@@ -173,44 +316,28 @@ pub fn granular_contact(
         (Some(w), Some(l), Some(h)) => Some((w, l, h)),
         _ => None,
     };
-    let ctx = Context {
-        particles: &particles,
-        list: &list,
-        materials: &materials,
-        laws: &laws,
-        dt: clock.dt,
-    };
     let restitution = materials.pairs.iter().any(|p| p.restitution_factor > 0.0);
-    let (results, sums_slice) = (&mut pair_results[..], &mut sums[..]);
+    // Without rotation (adhesion only) the torques go to a scratch block.
+    let mut rotation = rotation;
+    let torque = match rotation.as_deref_mut() {
+        Some(r) => &mut r.torque,
+        None => {
+            for col in unused_torque.iter_mut() {
+                col.resize(particles.len(), 0.0);
+            }
+            &mut *unused_torque
+        }
+    };
+    let (p, l, h) = (&mut *particles, &*list, &mut history.values);
+    let buffers = (&mut block_results[..], torque);
     let worst = if restitution {
-        ctx.both_passes::<RestitutionDamping>(results, sums_slice, &mut history.values, walls)
+        both_passes::<RestitutionDamping>(p, l, &materials, &laws, buffers, h, walls, clock.dt)
     } else {
-        ctx.both_passes::<ConstantDamping>(results, sums_slice, &mut history.values, walls)
+        both_passes::<ConstantDamping>(p, l, &materials, &laws, buffers, h, walls, clock.dt)
     };
     health.max_overlap_ratio = worst.0;
     health.max_overlap_particle = worst.1;
     health.run_max_overlap_ratio = health.run_max_overlap_ratio.max(worst.0);
-    let Particles { force, .. } = &mut *particles;
-    for (d, col) in force.iter_mut().enumerate() {
-        col.par_iter_mut()
-            .zip(&sums[..])
-            .for_each(|(f, s)| *f = s[0][d]);
-    }
-    if let Some(mut rotation) = rotation {
-        for (d, col) in rotation.torque.iter_mut().enumerate() {
-            col.par_iter_mut()
-                .zip(&sums[..])
-                .for_each(|(t, s)| *t = s[1][d]);
-        }
-    }
-}
-
-struct Context<'a> {
-    particles: &'a Particles,
-    list: &'a VerletList,
-    materials: &'a Materials,
-    laws: &'a ContactLaws,
-    dt: f64,
 }
 
 /// The deeper of two (overlap ratio, particle id) records; the smaller id on ties.
@@ -222,131 +349,206 @@ fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
     }
 }
 
-impl Context<'_> {
-    #[inline]
-    fn vec(&self, col: &[Vec<f64>; 3], i: usize) -> DVec3 {
-        DVec3::new(col[0][i], col[1][i], col[2][i])
+/// Gather `col[js[0..4]]` into lanes.
+#[inline(always)]
+fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
+    f64x4::new(js.map(|j| col[j]))
+}
+
+#[inline(always)]
+fn gather3(cols: &[Vec<f64>; 3], js: &[usize; 4]) -> V3<f64x4> {
+    V3::new(
+        gather(&cols[0], js),
+        gather(&cols[1], js),
+        gather(&cols[2], js),
+    )
+}
+
+#[inline(always)]
+fn row3(cols: &[Vec<f64>; 3], i: usize) -> V3<f64> {
+    V3::new(cols[0][i], cols[1][i], cols[2][i])
+}
+
+#[allow(clippy::too_many_arguments)]
+fn both_passes<D: NormalDamping>(
+    particles: &mut Particles,
+    list: &VerletList,
+    materials: &Materials,
+    laws: &ContactLaws,
+    (results, torque): (&mut [BlockResult], &mut Columns),
+    history: &mut [f64],
+    walls: Option<(&Walls, &WallList, &mut WallHistory)>,
+    dt: f64,
+) -> (f64, u32) {
+    let m = materials.list.len();
+    let table: Vec<Coefficients<f64>> = (0..m * m)
+        .map(|k| Coefficients::of_pair::<D>(materials, laws, (k / m) as u16, (k % m) as u16))
+        .collect();
+    let kernel = Kernel {
+        table: &table,
+        materials: m,
+        layout: &laws.layout,
+        dt,
+    };
+    let pairs_worst = {
+        let _span = tracing::info_span!("pair_contacts").entered();
+        kernel.pair_contacts::<D>(particles, list, results, history)
+    };
+    let mut force = std::mem::take(&mut particles.force);
+    let walls_worst = {
+        let _span = tracing::info_span!("contact_sums_and_walls").entered();
+        kernel.sums_and_walls::<D>(particles, list, results, [&mut force, torque], walls)
+    };
+    particles.force = force;
+    deeper(pairs_worst, walls_worst)
+}
+
+struct Kernel<'a> {
+    table: &'a [Coefficients<f64>],
+    materials: usize,
+    layout: &'a HistoryLayout,
+    dt: f64,
+}
+
+impl Kernel<'_> {
+    #[inline(always)]
+    fn pair(&self, a: u16, b: u16) -> &Coefficients<f64> {
+        &self.table[a as usize * self.materials + b as usize]
     }
 
-    fn both_passes<D: NormalDamping>(
+    /// Pass 1: every listed pair, in blocks of four consecutive pairs (one per lane,
+    /// whatever their rows), with its history block. Returns the largest overlap over
+    /// the smaller radius, with the id of the pair's row owner.
+    fn pair_contacts<D: NormalDamping>(
         &self,
-        results: &mut [PairResult],
-        sums: &mut [Sums],
-        history: &mut [f64],
-        walls: Option<(&Walls, &WallList, &mut WallHistory)>,
-    ) -> (f64, u32) {
-        let rows = {
-            let _span = tracing::info_span!("row_contacts").entered();
-            self.row_contacts::<D>(results, sums, history)
-        };
-        let _span = tracing::info_span!("partner_and_wall_contacts").entered();
-        deeper(
-            rows,
-            self.partner_and_wall_contacts::<D>(results, sums, walls),
-        )
-    }
-
-    /// Pass 1: the pairs of each particle's own row.
-    fn row_contacts<D: NormalDamping>(
-        &self,
-        results: &mut [PairResult],
-        sums: &mut [Sums],
+        p: &Particles,
+        list: &VerletList,
+        results: &mut [BlockResult],
         history: &mut [f64],
     ) -> (f64, u32) {
-        let p = self.particles;
-        let n = p.len();
-        let list = self.list;
-        let layout = &self.laws.layout;
-        let width = layout.width;
+        let pairs = list.pairs();
+        let width = self.layout.width;
+        let one = (self.materials == 1).then(|| Coefficients::<f64x4>::splat(&self.table[0]));
+        let zero = f64x4::ZERO;
+        let lane_mask = [1, 2, 3, 4]
+            .map(|m| f64x4::new([0, 1, 2, 3].map(|l| if l < m { 1.0 } else { -1.0 })).cmp_gt(zero));
+        let dt = f64x4::splat(self.dt);
         (
-            sums.par_chunks_mut(CHUNK),
-            row_chunks(results, &list.start, n, 1),
-            row_chunks(history, &list.start, n, width),
+            results.par_chunks_mut(BLOCKS),
+            history.par_chunks_mut(BLOCKS * LANES * width),
         )
             .into_par_iter()
             .enumerate()
-            .map(|(c, (sums, results, history))| {
-                let base = c * CHUNK;
-                let pair_base = list.start[base] as usize;
+            .map(|(c, (results, history))| {
                 let mut worst = (0.0f64, u32::MAX);
-                for (k, sum) in sums.iter_mut().enumerate() {
-                    let i = base + k;
-                    let (xi, vi, wi) = (
-                        self.vec(&p.position, i),
-                        self.vec(&p.velocity, i),
-                        self.vec(&p.angular_velocity, i),
+                for (b, (out, hist)) in results
+                    .iter_mut()
+                    .zip(history.chunks_mut(LANES * width))
+                    .enumerate()
+                {
+                    let k0 = (c * BLOCKS + b) * LANES;
+                    let valid = (pairs - k0).min(LANES);
+                    // Lanes past the last pair repeat it and are masked.
+                    let ks = [0, 1, 2, 3].map(|l| k0 + l.min(valid - 1));
+                    let is = ks.map(|k| list.owner[k] as usize);
+                    let js = ks.map(|k| list.neighbours[k] as usize);
+                    let (ri, rj) = (gather(&p.radius, &is), gather(&p.radius, &js));
+                    let gap = gather3(&p.position, &is) - gather3(&p.position, &js);
+                    let d2 = gap.dot(gap);
+                    let reach = ri + rj;
+                    let component = |v: usize| {
+                        f64x4::new(
+                            hist[v * LANES..(v + 1) * LANES]
+                                .try_into()
+                                .expect("4 lanes"),
+                        )
+                    };
+                    let mut h = History::<f64x4>::load(self.layout, component);
+                    let live =
+                        (d2.cmp_lt(reach * reach) | h.bond.cmp_gt(zero)) & lane_mask[valid - 1];
+                    if live.none() {
+                        *out = [zero; 9];
+                        hist.fill(0.0);
+                        continue;
+                    }
+                    let d = d2.sqrt();
+                    // One division for both 1/d and 1/(r_i + r_j).
+                    let q = f64x4::ONE / (d * reach);
+                    let (inv_d, inv_reach) = (q * reach, q * d);
+                    let nrm = gap.scale(inv_d);
+                    let (wi, wj) = (
+                        gather3(&p.angular_velocity, &is),
+                        gather3(&p.angular_velocity, &js),
                     );
-                    let ri = p.radius[i];
-                    let mut total = [DVec3::ZERO; 2];
-                    for pair in list.start[i] as usize..list.start[i + 1] as usize {
-                        let j = list.neighbours[pair] as usize;
-                        let local = pair - pair_base;
-                        let hist = &mut history[local * width..(local + 1) * width];
-                        let rj = p.radius[j];
-                        let gap = xi - self.vec(&p.position, j);
-                        let d2 = gap.length_squared();
-                        // Apart beyond any adhesive range: nothing to compute.
-                        let reach = ri + rj;
-                        if d2 > reach * reach && hist.iter().all(|&h| h == 0.0) {
-                            results[local] = [DVec3::ZERO; 2];
-                            continue;
+                    let geometry = Geometry {
+                        n: nrm,
+                        delta: reach - d,
+                        r_eff: ri * rj * inv_reach,
+                        radius_ratio: (rj - ri) * inv_reach,
+                        inv_mass_sum: gather(&p.inv_mass, &is) + gather(&p.inv_mass, &js),
+                        velocity: gather3(&p.velocity, &is) - gather3(&p.velocity, &js),
+                        surface: nrm.cross(wi).scale(ri) + nrm.cross(wj).scale(rj),
+                        spin: wi - wj,
+                    };
+                    let coefficients = match &one {
+                        Some(c) => *c,
+                        None => {
+                            let refs = [0, 1, 2, 3]
+                                .map(|l| self.pair(p.material[is[l]], p.material[js[l]]));
+                            Coefficients::gather(&refs, |l| l)
                         }
-                        let d = d2.sqrt();
-                        let nrm = gap / d;
-                        let wj = self.vec(&p.angular_velocity, j);
-                        let geometry = Geometry {
-                            n: nrm,
-                            delta: reach - d,
-                            r_eff: ri * rj / reach,
-                            radius_ratio: (rj - ri) / reach,
-                            inv_mass_sum: p.inv_mass[i] + p.inv_mass[j],
-                            velocity: vi - self.vec(&p.velocity, j),
-                            surface: ri * nrm.cross(wi) + rj * nrm.cross(wj),
-                            spin: wi - wj,
-                        };
-                        let (mi, mj) = (p.material[i], p.material[j]);
-                        let flip = if p.id[i] < p.id[j] { 1.0 } else { -1.0 };
-                        let exerted = interact::<D>(
-                            self.materials.pair(mi, mj),
-                            self.laws.pair(mi, mj),
-                            layout,
-                            hist,
-                            flip,
-                            &geometry,
-                            self.dt,
-                        );
-                        let Some(e) = exerted else {
-                            results[local] = [DVec3::ZERO; 2];
-                            continue;
-                        };
-                        let arm = nrm.cross(e.tangential);
-                        let roll = geometry.r_eff * e.rolling.cross(nrm);
-                        total[0] += e.force;
-                        total[1] += -ri * arm + roll;
-                        results[local] = [e.force, -rj * arm - roll];
-                        if geometry.delta > 0.0 {
-                            worst = deeper(worst, (geometry.delta / ri.min(rj), p.id[i]));
+                    };
+                    let flip = f64x4::new([0, 1, 2, 3].map(|l| {
+                        if p.id[is[l]] < p.id[js[l]] {
+                            1.0
+                        } else {
+                            -1.0
+                        }
+                    }));
+                    let e = interact::<f64x4, D>(
+                        &coefficients,
+                        self.layout,
+                        &mut h,
+                        flip,
+                        &geometry,
+                        dt,
+                    );
+                    h.store(self.layout, |v, lanes| {
+                        hist[v * LANES..(v + 1) * LANES].copy_from_slice(lanes.as_array_ref())
+                    });
+                    let arm = nrm.cross(e.tangential);
+                    let roll = e.rolling.cross(nrm).scale(geometry.r_eff);
+                    let owner = roll - arm.scale(ri);
+                    let partner = -(arm.scale(rj) + roll);
+                    *out = [
+                        e.force.x, e.force.y, e.force.z, owner.x, owner.y, owner.z, partner.x,
+                        partner.y, partner.z,
+                    ];
+                    let overlap = e.touching & geometry.delta.cmp_gt(zero) & lane_mask[valid - 1];
+                    let ratio = overlap.blend(geometry.delta / ri.min(rj), zero);
+                    for (l, &x) in ratio.as_array_ref().iter().enumerate() {
+                        if x > 0.0 {
+                            worst = deeper(worst, (x, p.id[is[l]]));
                         }
                     }
-                    *sum = total;
                 }
                 worst
             })
             .reduce(|| (0.0, u32::MAX), deeper)
     }
 
-    /// Pass 2: partner halves of the pairs, then the walls.
-    fn partner_and_wall_contacts<D: NormalDamping>(
+    /// Pass 2: every particle sums its own pairs (the owner's share), the pairs it is
+    /// partner in (the other share), then its walls (scalar), in that fixed order.
+    fn sums_and_walls<D: NormalDamping>(
         &self,
-        results: &[PairResult],
-        sums: &mut [Sums],
+        p: &Particles,
+        list: &VerletList,
+        results: &[BlockResult],
+        [force, torque]: [&mut Columns; 2],
         walls: Option<(&Walls, &WallList, &mut WallHistory)>,
     ) -> (f64, u32) {
-        let p = self.particles;
         let n = p.len();
-        let list = self.list;
-        let layout = &self.laws.layout;
-        let width = layout.width;
+        let width = self.layout.width;
         let (wall_set, wall_chunks): (_, Vec<Option<&mut [f64]>>) = match walls {
             Some((w, l, h)) => (
                 Some((w, l)),
@@ -357,64 +559,92 @@ impl Context<'_> {
             ),
             None => (None, (0..n.div_ceil(CHUNK)).map(|_| None).collect()),
         };
-        (sums.par_chunks_mut(CHUNK), wall_chunks)
+        let [fx, fy, fz] = force;
+        let [tx, ty, tz] = torque;
+        (
+            fx.par_chunks_mut(CHUNK),
+            fy.par_chunks_mut(CHUNK),
+            fz.par_chunks_mut(CHUNK),
+            tx.par_chunks_mut(CHUNK),
+            ty.par_chunks_mut(CHUNK),
+            tz.par_chunks_mut(CHUNK),
+            wall_chunks,
+        )
             .into_par_iter()
             .enumerate()
-            .map(|(c, (sums, mut wall_hist))| {
+            .map(|(c, (fx, fy, fz, tx, ty, tz, mut wall_hist))| {
                 let base = c * CHUNK;
                 let mut worst = (0.0f64, u32::MAX);
-                for (k, sum) in sums.iter_mut().enumerate() {
+                for k in 0..fx.len() {
                     let i = base + k;
+                    let mut sum = [0.0; 6];
+                    for pair in list.start[i] as usize..list.start[i + 1] as usize {
+                        let (r, l) = (&results[pair / LANES], pair % LANES);
+                        for (v, s) in sum.iter_mut().enumerate() {
+                            *s += r[v].as_array_ref()[l];
+                        }
+                    }
                     let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
                     for &pair in &list.rev_pairs[rev] {
-                        let [f, t] = results[pair as usize];
-                        sum[0] -= f;
-                        sum[1] += t;
+                        let (r, l) = (&results[pair as usize / LANES], pair as usize % LANES);
+                        for d in 0..3 {
+                            sum[d] -= r[d].as_array_ref()[l];
+                            sum[3 + d] += r[6 + d].as_array_ref()[l];
+                        }
                     }
-                    let (Some((walls, wl)), Some(hist)) = (wall_set, wall_hist.as_deref_mut())
-                    else {
-                        continue;
-                    };
-                    let xi = self.vec(&p.position, i);
-                    let wi = self.vec(&p.angular_velocity, i);
-                    let ri = p.radius[i];
-                    let entry_base = wl.start[base] as usize;
-                    let mut deepest = 0.0f64;
-                    for e in wl.start[i] as usize..wl.start[i + 1] as usize {
-                        let wall = &walls.list[wl.walls[e] as usize];
-                        let local = e - entry_base;
-                        let h = &mut hist[local * width..(local + 1) * width];
-                        let (dist, nrm) = wall_distance(&wall.shape, xi.to_array());
-                        let nrm = DVec3::from_array(nrm);
-                        let geometry = Geometry {
-                            n: nrm,
-                            delta: ri - dist,
-                            r_eff: ri,
-                            radius_ratio: 1.0,
-                            inv_mass_sum: p.inv_mass[i],
-                            velocity: self.vec(&p.velocity, i),
-                            surface: ri * nrm.cross(wi),
-                            spin: wi,
-                        };
-                        let (mw, mi) = (wall.material, p.material[i]);
-                        let Some(e) = interact::<D>(
-                            self.materials.pair(mw, mi),
-                            self.laws.pair(mw, mi),
-                            layout,
-                            h,
-                            1.0,
-                            &geometry,
-                            self.dt,
-                        ) else {
-                            continue;
-                        };
-                        sum[0] += e.force;
-                        sum[1] += -ri * nrm.cross(e.tangential) + ri * e.rolling.cross(nrm);
-                        deepest = deepest.max(geometry.delta);
+                    if let (Some((walls, wl)), Some(hist)) = (wall_set, wall_hist.as_deref_mut()) {
+                        let xi = row3(&p.position, i);
+                        let wi = row3(&p.angular_velocity, i);
+                        let ri = p.radius[i];
+                        let entry_base = wl.start[base] as usize;
+                        let mut deepest = 0.0f64;
+                        for e in wl.start[i] as usize..wl.start[i + 1] as usize {
+                            let wall = &walls.list[wl.walls[e] as usize];
+                            let at = (e - entry_base) * width;
+                            let row = &mut hist[at..at + width];
+                            let (dist, nrm) = wall_distance(&wall.shape, [xi.x, xi.y, xi.z]);
+                            let nrm = V3::new(nrm[0], nrm[1], nrm[2]);
+                            let geometry = Geometry {
+                                n: nrm,
+                                delta: ri - dist,
+                                r_eff: ri,
+                                radius_ratio: 1.0,
+                                inv_mass_sum: p.inv_mass[i],
+                                velocity: row3(&p.velocity, i),
+                                surface: nrm.cross(wi).scale(ri),
+                                spin: wi,
+                            };
+                            let mut h = History::<f64>::load(self.layout, |v| row[v]);
+                            let coefficients = *self.pair(wall.material, p.material[i]);
+                            let e = interact::<f64, D>(
+                                &coefficients,
+                                self.layout,
+                                &mut h,
+                                1.0,
+                                &geometry,
+                                self.dt,
+                            );
+                            h.store(self.layout, |v, x| row[v] = x);
+                            if !e.touching {
+                                continue;
+                            }
+                            let t =
+                                e.rolling.cross(nrm).scale(ri) - nrm.cross(e.tangential).scale(ri);
+                            for (d, (f, t)) in
+                                [(e.force.x, t.x), (e.force.y, t.y), (e.force.z, t.z)]
+                                    .into_iter()
+                                    .enumerate()
+                            {
+                                sum[d] += f;
+                                sum[3 + d] += t;
+                            }
+                            deepest = deepest.max(geometry.delta);
+                        }
+                        if deepest > 0.0 {
+                            worst = deeper(worst, (deepest / ri, p.id[i]));
+                        }
                     }
-                    if deepest > 0.0 {
-                        worst = deeper(worst, (deepest / ri, p.id[i]));
-                    }
+                    [fx[k], fy[k], fz[k], tx[k], ty[k], tz[k]] = sum;
                 }
                 worst
             })

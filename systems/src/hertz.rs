@@ -2,8 +2,6 @@
 //!
 //! The pair pass runs four pairs at a time in `wide::f64x4` lanes, with no branch on
 //! contact: lanes out of contact are masked.
-use std::ops::{Add, Div, Mul, Sub};
-
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
@@ -11,45 +9,16 @@ use grainflow_components::{
 use rayon::prelude::*;
 use wide::{f64x4, CmpGt, CmpLt};
 
+use crate::real::Real;
 use crate::walls::wall_distance;
 use crate::{row_chunks, CHUNK};
-
-/// The arithmetic of the contact formulas, for scalars and for SIMD lanes.
-pub trait Real:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
-{
-    fn sqrt(self) -> Self;
-    fn splat(x: f64) -> Self;
-}
-
-impl Real for f64 {
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-    #[inline(always)]
-    fn splat(x: f64) -> Self {
-        x
-    }
-}
-
-impl Real for f64x4 {
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64x4::sqrt(self)
-    }
-    #[inline(always)]
-    fn splat(x: f64) -> Self {
-        f64x4::splat(x)
-    }
-}
 
 /// Normal damping law of a scene (all pairs share one: mixing laws is rejected at load,
 /// so the kernel is compiled once per law and has no branch on it).
 pub trait NormalDamping: Sync {
     /// Damping force for the pair's `coefficient`, elastic factor (4/3) E*
-    /// `hertz_factor`, sqrt(R* delta) `sqrt_rd`, 1/m* `inv_mass_sum`, approach speed
-    /// `delta_dot`.
+    /// `hertz_factor`, contact radius `sqrt_rd` (sqrt(R* delta) for Hertz), 1/m*
+    /// `inv_mass_sum`, approach speed `delta_dot`.
     fn damping<T: Real>(
         coefficient: T,
         hertz_factor: T,
@@ -96,24 +65,23 @@ impl NormalDamping for RestitutionDamping {
     }
 }
 
-/// Normal force (positive = repulsive) of a Hertz contact with overlap `delta` and
-/// approach speed `delta_dot`, seed slide "Models for DEM" (Hertz 1896):
+/// Normal force (positive = repulsive) of a Hertz contact with overlap `delta`, contact
+/// radius `a` = sqrt(R* delta) and approach speed `delta_dot`, seed slide "Models for
+/// DEM" (Hertz 1896):
 ///
-///   F = c_n delta^(3/2) + damping,  c_n = (4/3) E* sqrt(R*)
+///   F = c_n delta^(3/2) + damping,  c_n = (4/3) E* sqrt(R*),  so F = (4/3) E* a delta + ...
 ///
 /// `hertz_factor` = (4/3) E*, `inv_mass_sum` = 1/m_i + 1/m_j = 1/m*.
 #[inline(always)]
 pub fn hertz_normal_force<T: Real, D: NormalDamping>(
     hertz_factor: T,
     damping: T,
-    r_eff: T,
+    a: T,
     inv_mass_sum: T,
     delta: T,
     delta_dot: T,
 ) -> T {
-    let sqrt_rd = (r_eff * delta).sqrt();
-    hertz_factor * sqrt_rd * delta
-        + D::damping(damping, hertz_factor, sqrt_rd, inv_mass_sum, delta_dot)
+    hertz_factor * a * delta + D::damping(damping, hertz_factor, a, inv_mass_sum, delta_dot)
 }
 
 /// Pair parameter lookup; a scene with one material uses [`OneMaterial`], so the hot loop
@@ -323,7 +291,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
                     let f = hertz_normal_force::<f64x4, D>(
                         hf,
                         damp,
-                        r_eff,
+                        (r_eff * delta).sqrt(),
                         inv_mi + gather(inv_m, &js),
                         delta,
                         delta_dot,
@@ -407,7 +375,7 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
                         let f = hertz_normal_force::<f64, D>(
                             p.hertz_factor,
                             D::coefficient(p),
-                            ri,
+                            (ri * delta).sqrt(),
                             inv_m[i],
                             delta,
                             delta_dot,

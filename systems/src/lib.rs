@@ -16,6 +16,7 @@ pub mod inflow;
 pub mod jkr;
 pub mod monitor;
 pub mod neighbour_list;
+pub mod real;
 pub mod rolling;
 pub mod rotation;
 pub mod rows;

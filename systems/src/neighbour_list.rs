@@ -337,12 +337,14 @@ fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list:
     }
     let old_values = std::mem::take(&mut history.values);
     let pairs = list.neighbours.len();
-    let mut values = vec![0.0; pairs * w];
+    let mut values = vec![0.0; history.len_for(pairs)];
+    let store = &*history;
+    // CHUNK pairs per work item: a whole number of blocks.
     values
         .par_chunks_mut(CHUNK * w)
         .enumerate()
         .for_each(|(c, out)| {
-            for (slot, k) in out.chunks_mut(w).zip(c * CHUNK..) {
+            for k in c * CHUNK..((c + 1) * CHUNK).min(pairs) {
                 let (a, b) = (
                     old_row[ids[list.owner[k] as usize] as usize],
                     old_row[ids[list.neighbours[k] as usize] as usize],
@@ -353,8 +355,10 @@ fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list:
                 }
                 let row = old.start[lo] as usize..old.start[lo + 1] as usize;
                 if let Ok(pos) = old.neighbours[row.clone()].binary_search(&hi) {
-                    let src = (row.start + pos) * w;
-                    slot.copy_from_slice(&old_values[src..src + w]);
+                    let src = row.start + pos;
+                    for v in 0..w {
+                        out[store.index(k, v) - c * CHUNK * w] = old_values[store.index(src, v)];
+                    }
                 }
             }
         });

@@ -1,0 +1,214 @@
+//! The arithmetic of the contact formulas, written once for scalars (`f64`) and for four
+//! contacts at a time in SIMD lanes (`wide::f64x4`): branches become lane masks.
+use std::ops::{Add, AddAssign, BitAnd, BitOr, Div, Mul, Neg, Sub};
+
+use wide::{f64x4, CmpGt, CmpLe, CmpLt};
+
+pub trait Real:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+{
+    /// The outcome of a comparison, one flag per lane.
+    type Mask: Copy + BitAnd<Output = Self::Mask> + BitOr<Output = Self::Mask>;
+    fn sqrt(self) -> Self;
+    fn splat(x: f64) -> Self;
+    fn lt(self, other: Self) -> Self::Mask;
+    fn le(self, other: Self) -> Self::Mask;
+    fn gt(self, other: Self) -> Self::Mask;
+    /// `yes` in the lanes where `mask` is set, else `no`.
+    fn select(mask: Self::Mask, yes: Self, no: Self) -> Self;
+    fn max(self, other: Self) -> Self;
+    /// Whether no lane of `mask` is set.
+    fn none(mask: Self::Mask) -> bool;
+    /// `f` applied lane by lane (for the rare scalar-only steps, e.g. a cube root).
+    fn map(self, f: impl Fn(f64) -> f64) -> Self;
+    /// Lanes built from a function of the lane index.
+    fn from_lanes(f: impl Fn(usize) -> f64) -> Self;
+    /// Lane `l`.
+    fn lane(self, l: usize) -> f64;
+}
+
+impl Real for f64 {
+    type Mask = bool;
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn lt(self, other: Self) -> bool {
+        self < other
+    }
+    #[inline(always)]
+    fn le(self, other: Self) -> bool {
+        self <= other
+    }
+    #[inline(always)]
+    fn gt(self, other: Self) -> bool {
+        self > other
+    }
+    #[inline(always)]
+    fn select(mask: bool, yes: Self, no: Self) -> Self {
+        if mask {
+            yes
+        } else {
+            no
+        }
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        f64::max(self, other)
+    }
+    #[inline(always)]
+    fn none(mask: bool) -> bool {
+        !mask
+    }
+    #[inline(always)]
+    fn map(self, f: impl Fn(f64) -> f64) -> Self {
+        f(self)
+    }
+    #[inline(always)]
+    fn from_lanes(f: impl Fn(usize) -> f64) -> Self {
+        f(0)
+    }
+    #[inline(always)]
+    fn lane(self, _: usize) -> f64 {
+        self
+    }
+}
+
+impl Real for f64x4 {
+    type Mask = f64x4;
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64x4::sqrt(self)
+    }
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        f64x4::splat(x)
+    }
+    #[inline(always)]
+    fn lt(self, other: Self) -> Self {
+        self.cmp_lt(other)
+    }
+    #[inline(always)]
+    fn le(self, other: Self) -> Self {
+        self.cmp_le(other)
+    }
+    #[inline(always)]
+    fn gt(self, other: Self) -> Self {
+        self.cmp_gt(other)
+    }
+    #[inline(always)]
+    fn select(mask: Self, yes: Self, no: Self) -> Self {
+        mask.blend(yes, no)
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        f64x4::max(self, other)
+    }
+    #[inline(always)]
+    fn none(mask: Self) -> bool {
+        mask.none()
+    }
+    #[inline(always)]
+    fn map(self, f: impl Fn(f64) -> f64) -> Self {
+        f64x4::new(self.to_array().map(f))
+    }
+    #[inline(always)]
+    fn from_lanes(f: impl Fn(usize) -> f64) -> Self {
+        f64x4::new([f(0), f(1), f(2), f(3)])
+    }
+    #[inline(always)]
+    fn lane(self, l: usize) -> f64 {
+        self.to_array()[l]
+    }
+}
+
+/// A vector of three `Real`s: one 3-vector, or one per lane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct V3<T> {
+    pub x: T,
+    pub y: T,
+    pub z: T,
+}
+
+impl<T: Real> V3<T> {
+    #[inline(always)]
+    pub fn new(x: T, y: T, z: T) -> Self {
+        Self { x, y, z }
+    }
+    #[inline(always)]
+    pub fn zero() -> Self {
+        let z = T::splat(0.0);
+        Self::new(z, z, z)
+    }
+    #[inline(always)]
+    pub fn dot(self, o: Self) -> T {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+    #[inline(always)]
+    pub fn cross(self, o: Self) -> Self {
+        Self::new(
+            self.y * o.z - self.z * o.y,
+            self.z * o.x - self.x * o.z,
+            self.x * o.y - self.y * o.x,
+        )
+    }
+    #[inline(always)]
+    pub fn length(self) -> T {
+        self.dot(self).sqrt()
+    }
+    #[inline(always)]
+    pub fn scale(self, s: T) -> Self {
+        Self::new(self.x * s, self.y * s, self.z * s)
+    }
+    /// `self` in the lanes of `mask`, else `other`.
+    #[inline(always)]
+    pub fn select(mask: T::Mask, yes: Self, no: Self) -> Self {
+        Self::new(
+            T::select(mask, yes.x, no.x),
+            T::select(mask, yes.y, no.y),
+            T::select(mask, yes.z, no.z),
+        )
+    }
+}
+
+impl<T: Real> Add for V3<T> {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
+    }
+}
+
+impl<T: Real> AddAssign for V3<T> {
+    #[inline(always)]
+    fn add_assign(&mut self, o: Self) {
+        *self = *self + o;
+    }
+}
+
+impl<T: Real> Sub for V3<T> {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        Self::new(self.x - o.x, self.y - o.y, self.z - o.z)
+    }
+}
+
+impl<T: Real> Neg for V3<T> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Self::new(-self.x, -self.y, -self.z)
+    }
+}
