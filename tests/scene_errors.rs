@@ -125,6 +125,73 @@ fn bad_scenes_exit_2_naming_file_and_field() {
     }
 }
 
+/// Contact-law fields: out of range, a parameter without its model, mu_d > mu_s, an
+/// interaction naming an unknown material or giving no law, a Verlet skin shorter than
+/// the JKR critical separation.
+#[test]
+fn bad_contact_laws_exit_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let law = |line: &str| edited("restitution = 0.5", &format!("restitution = 0.5\n{line}"));
+    let interaction = |body: &str| format!("{GOOD}\n[[interactions]]\n{body}\n");
+    let cases = [
+        (
+            "negative_friction.toml",
+            law("friction = -0.1"),
+            "materials[0].friction",
+        ),
+        (
+            "dynamic_above_static.toml",
+            law("friction = 0.3\ndynamic_friction = 0.5"),
+            "materials[0].dynamic_friction",
+        ),
+        (
+            "damping_without_friction.toml",
+            law("tangential_damping = 0.1"),
+            "materials[0].tangential_damping",
+        ),
+        (
+            "rolling_stiffness_without_rolling.toml",
+            law("rolling_stiffness = 10.0"),
+            "materials[0].rolling_stiffness",
+        ),
+        (
+            "zero_work.toml",
+            law("work_of_adhesion = 0.0"),
+            "materials[0].work_of_adhesion",
+        ),
+        (
+            "misspelt_law.toml",
+            law("frictoin = 0.3"),
+            "materials[0].frictoin",
+        ),
+        (
+            "interaction_unknown_material.toml",
+            interaction("materials = [\"steel\", \"rubber\"]\nfriction = 0.5"),
+            "interactions[0].materials[1]",
+        ),
+        (
+            "interaction_without_law.toml",
+            interaction("materials = [\"steel\", \"steel\"]"),
+            "interactions[0]",
+        ),
+        (
+            // delta_s of steel on the steel wall (R* = 5 mm, E* = 1.1e8 Pa, W = 50 J/m^2)
+            // is about 1.6e-5 m: a skin of 1e-6 m would lose stretched contacts.
+            "skin_below_jkr_range.toml",
+            format!(
+                "{}\n[neighbour]\nskin = 1.0e-6\n",
+                law("work_of_adhesion = 50.0")
+            ),
+            "neighbour.skin",
+        ),
+    ];
+    for (name, text, field) in &cases {
+        let path = write_scene(d, name, text);
+        rejected(d, &path, &[], field);
+    }
+}
+
 /// Checks of wall and inflow values that the types cannot express: NaN or out-of-order
 /// numbers, negative jitter, an inflow region narrower than its particles.
 #[test]
@@ -220,6 +287,17 @@ fn schedule(stdout: &str) -> Vec<String> {
     names
 }
 
+/// The systems that friction, rolling resistance or adhesion bring (contact with
+/// history, wall-contact history, rotation), absent from frictionless dry scenes.
+const CONTACT_LAW_SYSTEMS: [&str; 6] = [
+    "granular_contact",
+    "carry_wall_history",
+    "gear_rotation_predict",
+    "gear_rotation_correct",
+    "sync_rows<Rotation>",
+    "permute_rows<Rotation>",
+];
+
 #[test]
 fn good_frictionless_scene_checks_and_shows_its_schedule() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -249,13 +327,35 @@ fn good_frictionless_scene_checks_and_shows_its_schedule() {
             registered.contains(&name.as_str()),
             "`{name}` is not a registered system"
         );
-        for model in ["friction", "adhesion", "rolling", "fluid"] {
+        for model in CONTACT_LAW_SYSTEMS.iter().chain(&["fluid"]) {
             assert!(
                 !name.contains(model),
                 "a frictionless dry scene runs `{name}`: {names:?}"
             );
         }
     }
+    // With friction and rolling resistance the contact system with history and the
+    // rotation integrator replace the frictionless contact.
+    let (code, stdout, _) = run_cli(&[
+        "check",
+        good.to_str().unwrap(),
+        "--set",
+        "materials.0.friction=0.5",
+        "--set",
+        "materials.0.rolling_friction=0.1",
+    ]);
+    assert_eq!(code, 0);
+    let frictional = schedule(&stdout);
+    for name in CONTACT_LAW_SYSTEMS {
+        assert!(
+            frictional.iter().any(|n| n == name),
+            "the frictional scene lacks {name}: {frictional:?}"
+        );
+    }
+    assert!(
+        !frictional.iter().any(|n| n == "hertz_contact"),
+        "{frictional:?}"
+    );
     // Velocity Verlet swaps the integrator systems and nothing else.
     let (code, stdout, _) = run_cli(&[
         "check",
