@@ -6,7 +6,8 @@ use std::time::Instant;
 
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    GearState, Materials, Particles, PerParticle, RunHealth, SimClock, VerletList, VerletState,
+    Clamped, ContactHistory, GearState, Materials, Particles, PerParticle, Rotation, RunHealth,
+    SimClock, VerletList, VerletState, WallHistory,
 };
 use grainflow_systems::schedule::Slot;
 use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
@@ -237,6 +238,12 @@ impl Simulation {
         if let Some(v) = self.world.get_resource::<VerletState>() {
             rows += v.bytes_per_row() as f64;
         }
+        if let Some(r) = self.world.get_resource::<Rotation>() {
+            rows += r.bytes_per_row() as f64;
+        }
+        if let Some(c) = self.world.get_resource::<Clamped>() {
+            rows += c.bytes_per_row() as f64;
+        }
         let list = self.world.resource::<VerletList>();
         let list_bytes = [
             &list.start,
@@ -254,7 +261,22 @@ impl Simulation {
                 .iter()
                 .map(|c| c.capacity() * 8)
                 .sum::<usize>() as f64;
-        rows + list_bytes / n
+        rows + (list_bytes + self.contact_store_bytes()) / n
+    }
+
+    /// Memory of the contact store (per-pair and per-wall-contact history), bytes.
+    pub fn contact_store_bytes(&self) -> f64 {
+        let pairs = self
+            .world
+            .get_resource::<ContactHistory>()
+            .map_or(0, |h| h.values.capacity() * 8);
+        let walls = self.world.get_resource::<WallHistory>().map_or(0, |h| {
+            h.values.capacity() * 8
+                + h.ids.capacity() * 4
+                + h.start.capacity() * 4
+                + h.walls.capacity() * 2
+        });
+        (pairs + walls) as f64
     }
 
     /// The run report as JSON (`summary.json`).
@@ -284,6 +306,10 @@ impl Simulation {
             "max_overlap_ratio": health.run_max_overlap_ratio,
             "neighbour_list_builds": list.builds,
             "neighbour_pairs_per_particle": list.pairs() as f64 / n.max(1) as f64,
+            "contact_store_bytes_per_pair": self
+                .world
+                .contains_resource::<ContactHistory>()
+                .then(|| self.contact_store_bytes() / list.pairs().max(1) as f64),
             "integrator": match self.scene.simulation.integrator {
                 crate::scene::IntegratorName::Gear => "gear",
                 crate::scene::IntegratorName::VelocityVerlet => "velocity_verlet",
