@@ -281,9 +281,8 @@ impl<T: Real> History<T> {
     }
 }
 
-/// Per block of four pairs, in lanes: force on the owner (3), torque on the owner (3),
-/// torque on the partner (3).
-type BlockResult = [f64x4; 9];
+/// Per pair: force on the owner (3), torque on the owner (3), torque on the partner (3).
+type PairResult = [f64; 9];
 
 const LANES: usize = ContactHistory::LANES;
 
@@ -292,7 +291,7 @@ const BLOCKS: usize = CHUNK / LANES;
 
 #[allow(clippy::too_many_arguments)]
 pub fn granular_contact(
-    mut block_results: Local<Vec<BlockResult>>,
+    mut pair_results: Local<Vec<PairResult>>,
     mut unused_torque: Local<Columns>,
     mut particles: ResMut<Particles>,
     rotation: Option<ResMut<Rotation>>,
@@ -307,7 +306,7 @@ pub fn granular_contact(
     mut health: ResMut<RunHealth>,
 ) {
     let _span = tracing::info_span!("granular_contact").entered();
-    block_results.resize(list.pairs().div_ceil(LANES), [f64x4::ZERO; 9]);
+    pair_results.resize(list.pairs().div_ceil(LANES) * LANES, [0.0; 9]);
     let walls = match (
         walls.as_deref(),
         wall_list.as_deref(),
@@ -329,7 +328,7 @@ pub fn granular_contact(
         }
     };
     let (p, l, h) = (&mut *particles, &*list, &mut history.values);
-    let buffers = (&mut block_results[..], torque);
+    let buffers = (&mut pair_results[..], torque);
     let worst = if restitution {
         both_passes::<RestitutionDamping>(p, l, &materials, &laws, buffers, h, walls, clock.dt)
     } else {
@@ -375,7 +374,7 @@ fn both_passes<D: NormalDamping>(
     list: &VerletList,
     materials: &Materials,
     laws: &ContactLaws,
-    (results, torque): (&mut [BlockResult], &mut Columns),
+    (results, torque): (&mut [PairResult], &mut Columns),
     history: &mut [f64],
     walls: Option<(&Walls, &WallList, &mut WallHistory)>,
     dt: f64,
@@ -423,7 +422,7 @@ impl Kernel<'_> {
         &self,
         p: &Particles,
         list: &VerletList,
-        results: &mut [BlockResult],
+        results: &mut [PairResult],
         history: &mut [f64],
     ) -> (f64, u32) {
         let pairs = list.pairs();
@@ -434,7 +433,7 @@ impl Kernel<'_> {
             .map(|m| f64x4::new([0, 1, 2, 3].map(|l| if l < m { 1.0 } else { -1.0 })).cmp_gt(zero));
         let dt = f64x4::splat(self.dt);
         (
-            results.par_chunks_mut(BLOCKS),
+            results.par_chunks_mut(BLOCKS * LANES),
             history.par_chunks_mut(BLOCKS * LANES * width),
         )
             .into_par_iter()
@@ -442,7 +441,7 @@ impl Kernel<'_> {
             .map(|(c, (results, history))| {
                 let mut worst = (0.0f64, u32::MAX);
                 for (b, (out, hist)) in results
-                    .iter_mut()
+                    .chunks_mut(LANES)
                     .zip(history.chunks_mut(LANES * width))
                     .enumerate()
                 {
@@ -467,7 +466,7 @@ impl Kernel<'_> {
                     let live =
                         (d2.cmp_lt(reach * reach) | h.bond.cmp_gt(zero)) & lane_mask[valid - 1];
                     if live.none() {
-                        *out = [zero; 9];
+                        out.fill([0.0; 9]);
                         hist.fill(0.0);
                         continue;
                     }
@@ -520,10 +519,14 @@ impl Kernel<'_> {
                     let roll = e.rolling.cross(nrm).scale(geometry.r_eff);
                     let owner = roll - arm.scale(ri);
                     let partner = -(arm.scale(rj) + roll);
-                    *out = [
+                    let lanes = [
                         e.force.x, e.force.y, e.force.z, owner.x, owner.y, owner.z, partner.x,
                         partner.y, partner.z,
-                    ];
+                    ]
+                    .map(|v| v.to_array());
+                    for (l, slot) in out.iter_mut().enumerate() {
+                        *slot = lanes.map(|v| v[l]);
+                    }
                     let overlap = e.touching & geometry.delta.cmp_gt(zero) & lane_mask[valid - 1];
                     let ratio = overlap.blend(geometry.delta / ri.min(rj), zero);
                     for (l, &x) in ratio.as_array_ref().iter().enumerate() {
@@ -543,7 +546,7 @@ impl Kernel<'_> {
         &self,
         p: &Particles,
         list: &VerletList,
-        results: &[BlockResult],
+        results: &[PairResult],
         [force, torque]: [&mut Columns; 2],
         walls: Option<(&Walls, &WallList, &mut WallHistory)>,
     ) -> (f64, u32) {
@@ -578,18 +581,17 @@ impl Kernel<'_> {
                 for k in 0..fx.len() {
                     let i = base + k;
                     let mut sum = [0.0; 6];
-                    for pair in list.start[i] as usize..list.start[i + 1] as usize {
-                        let (r, l) = (&results[pair / LANES], pair % LANES);
-                        for (v, s) in sum.iter_mut().enumerate() {
-                            *s += r[v].as_array_ref()[l];
+                    for r in &results[list.start[i] as usize..list.start[i + 1] as usize] {
+                        for (s, x) in sum.iter_mut().zip(r) {
+                            *s += x;
                         }
                     }
                     let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
                     for &pair in &list.rev_pairs[rev] {
-                        let (r, l) = (&results[pair as usize / LANES], pair as usize % LANES);
+                        let r = &results[pair as usize];
                         for d in 0..3 {
-                            sum[d] -= r[d].as_array_ref()[l];
-                            sum[3 + d] += r[6 + d].as_array_ref()[l];
+                            sum[d] -= r[d];
+                            sum[3 + d] += r[6 + d];
                         }
                     }
                     if let (Some((walls, wl)), Some(hist)) = (wall_set, wall_hist.as_deref_mut()) {
