@@ -36,7 +36,7 @@ pub fn coulomb_tangential_force<T: Real>(
 ///                                             this step's increment)
 ///   F_0 = -c g - d U                         (test force)
 ///   |F_0| <= cap_static:  F = F_0,            g' = g                 (sticking)
-///   |F_0| >  cap_static:  F = cap_dynamic t,  g' = -(F + d U)/c      (sliding)
+///   |F_0| >  cap_static:  F = cap_dynamic t,  g' = -F/c             (sliding)
 ///
 /// with t = F_0 / |F_0| (g' = 0 when c = 0). Returns F and leaves g' in `spring`. Both
 /// outcomes are computed and selected per lane.
@@ -48,6 +48,12 @@ pub fn coulomb_tangential_force<T: Real>(
 /// direction, and while the normal force falls, as in the rebound half of an impact, the
 /// test force stays above the cap), so friction keeps its direction after the slip
 /// velocity has reversed. Checked by Chung & Ooi's oblique impacts (tests/chung_ooi.rs).
+///
+/// On sliding the seed (after Luding 2005) resets the spring to g' = -(F + d U)/c, so
+/// that -c g' - d U = F. With damping, that spring holds F + d U, which points along the
+/// slip when d |U| > |F|: a contact that stops after sliding would then be pushed on in
+/// its old slip direction. Here the spring keeps only the elastic share, g' = -F/c (the
+/// force while sliding is the same: F, capped). Checked in tests/friction.rs.
 #[inline(always)]
 pub fn capped_spring_dashpot<T: Real>(
     spring: &mut V3<T>,
@@ -71,7 +77,7 @@ pub fn capped_spring_dashpot<T: Real>(
     let zero = T::splat(0.0);
     // Sliding lanes have |F_0| > cap_static >= 0: no division by zero is selected.
     let slide = test.scale(cap_dynamic / size2.sqrt());
-    let reset = -(slide + u.scale(damping)).scale(T::splat(1.0) / stiffness);
+    let reset = -slide.scale(T::splat(1.0) / stiffness);
     let reset = V3::select(zero.lt(stiffness), reset, V3::zero());
     *spring = V3::select(stick, trial, reset);
     V3::select(stick, test, slide)

@@ -137,7 +137,7 @@ pub fn gear_correct(
 
 /// Zero for |x| < 1e-150, else x.
 #[inline(always)]
-fn flush_tiny(x: f64) -> f64 {
+pub(crate) fn flush_tiny(x: f64) -> f64 {
     if x.abs() < 1e-150 {
         0.0
     } else {

@@ -5,12 +5,13 @@
 //! The angular velocity goes through the same integrator as the translation: the Gear
 //! predictor-corrector with w in the place of the velocity (its predictor and corrector
 //! coefficients 1, 3/4, 1/2, 1/12 on w, dw/dt, d2w/dt2, d3w/dt3; see `gear.rs`), or
-//! velocity Verlet with w(t + dt/2) (see `verlet.rs`). The orientation turns by the exact
-//! rotation of angle |w| dt about w after each corrector.
+//! velocity Verlet with w(t + dt/2) (see `verlet.rs`). The orientation turns by w dt
+//! after each corrector (second order, see [`turn_orientations`]).
 use bevy_ecs::prelude::*;
 use grainflow_components::{IntegratorKind, Particles, Rotation, SimClock};
 use rayon::prelude::*;
 
+use crate::gear::flush_tiny;
 use crate::CHUNK;
 
 /// Whether the world integrates rotation (some contact law produces torques).
@@ -58,7 +59,9 @@ pub fn gear_rotation_predict(
 }
 
 /// Gear corrector for w with Delta = T/I - w'_p: w += 3/8 dt Delta, w' += Delta,
-/// w'' += 3/2 Delta/dt, w''' += Delta/dt^2; then the orientation.
+/// w'' += 3/2 Delta/dt, w''' += Delta/dt^2; then the orientation. As for the translation,
+/// |w''|, |w'''| < 1e-150 are set to zero (they decay geometrically without torque and
+/// would become slow subnormal numbers).
 pub fn gear_rotation_correct(
     mut particles: ResMut<Particles>,
     mut rotation: ResMut<Rotation>,
@@ -93,8 +96,8 @@ pub fn gear_rotation_correct(
                     let delta = t[k] * inverse_inertia(im[k], r[k]) - a[k];
                     w[k] += cw * delta;
                     a[k] += delta;
-                    b[k] += cb * delta;
-                    c[k] += cc * delta;
+                    b[k] = flush_tiny(b[k] + cb * delta);
+                    c[k] = flush_tiny(c[k] + cc * delta);
                 }
             });
     }
@@ -189,10 +192,13 @@ pub fn inverse_inertia(inv_mass: f64, radius: f64) -> f64 {
     2.5 * inv_mass / (radius * radius)
 }
 
-/// q <- (cos(|w| dt/2), sin(|w| dt/2) w/|w|) q, renormalised.
+/// q <- normalise(q + dt/2 (0, w) q): the exact turn exp(dt/2 (0, w)) q to second order
+/// (after normalisation the angle is atan(|w| dt/2) for |w| dt/2, an error of
+/// (|w| dt)^3/24 per step), without trigonometric functions.
 fn turn_orientations(particles: &Particles, rotation: &mut Rotation, dt: f64) {
     let [wx, wy, wz] = &particles.angular_velocity;
     let [q0, q1, q2, q3] = &mut rotation.orientation;
+    let h = 0.5 * dt;
     (
         q0.par_chunks_mut(CHUNK),
         q1.par_chunks_mut(CHUNK),
@@ -204,13 +210,9 @@ fn turn_orientations(particles: &Particles, rotation: &mut Rotation, dt: f64) {
         .for_each(|(c, (q0, q1, q2, q3))| {
             for k in 0..q0.len() {
                 let i = c * CHUNK + k;
-                let w = glam::DVec3::new(wx[i], wy[i], wz[i]);
-                let angle = w.length() * dt;
-                if angle == 0.0 {
-                    continue;
-                }
-                let turn = glam::DQuat::from_axis_angle(w.normalize(), angle);
-                let q = (turn * glam::DQuat::from_xyzw(q1[k], q2[k], q3[k], q0[k])).normalize();
+                let w = glam::DQuat::from_xyzw(h * wx[i], h * wy[i], h * wz[i], 0.0);
+                let q = glam::DQuat::from_xyzw(q1[k], q2[k], q3[k], q0[k]);
+                let q = (q + w * q).normalize();
                 (q0[k], q1[k], q2[k], q3[k]) = (q.w, q.x, q.y, q.z);
             }
         });

@@ -1,0 +1,549 @@
+//! Matrix-free stencil operators of the Q1~/Q0 pair on one uniform level.
+//!
+//! * [`FaceOperator`]: the scalar Q1~ operator `alpha M + nu K` (mass plus viscous
+//!   stiffness) acting on one velocity component, assembled on the fly from the constant
+//!   element matrices of [`crate::element`]. A face with one adjacent cell (a box side that
+//!   is not periodic) gets only that cell's contribution: the natural (do-nothing)
+//!   condition. Dirichlet faces are handled by the callers through a mask (their rows are
+//!   never solved for; their values enter the other rows as known data).
+//! * [`add_gradient`] (`B`) and [`divergence`] (`D = -B^T`): from the weak form
+//!   `-(p, div v)` and `int_T d phi_F / dx_a = |F| n_a(F)`,
+//!   `(B p)_F = |F| (p_plus - p_minus)` on the normal component of face `F` and
+//!   `(D u)_T = sum_a |F_a| (u_a(F_a+) - u_a(F_a-))` (the flux out of `T`). A missing cell
+//!   outside a do-nothing side counts as pressure 0; a given boundary pressure enters
+//!   through [`add_boundary_pressure`].
+//! * [`CellOperator`]: the pressure Schur complement `P = B^T M_l^{-1} B` with the lumped
+//!   mass `M_l` (`V/6` per adjacent cell of a face): a 7-point operator with coefficient
+//!   `|F_a|^2 / (V/3) = 3 |F_a|^2 / V` between neighbouring cells across an `a`-face, `0`
+//!   across a Dirichlet (wall) side where `B` has no row, and `|F_a|^2 / (V/6)` on the
+//!   diagonal only across a do-nothing side.
+//!
+//! All loops run over rows of contiguous unknowns with rayon; each output entry is
+//! written by exactly one task and reductions use a fixed chunking ([`dot`]), so results
+//! do not depend on the number of threads.
+
+use crate::element::{mass_entries, stiffness_entries};
+use crate::grid::{BoundaryKind, Grid, Layout};
+use rayon::prelude::*;
+
+/// Chunk length of the deterministic reductions.
+const CHUNK: usize = 4096;
+
+/// `sum_i a_i b_i`, summed in fixed chunks (independent of the thread count).
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let partial: Vec<f64> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>())
+        .collect();
+    partial.iter().sum()
+}
+
+/// `sum_i a_i b_i` in one serial loop (small vectors).
+pub fn serial_dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| p * q).sum()
+}
+
+/// Minimum unknowns per parallel task: smaller levels run in one task.
+const MIN_TASK: usize = 8192;
+
+/// Minimum number of rows of length `row_len` per parallel task.
+pub(crate) fn min_rows(row_len: usize) -> usize {
+    (MIN_TASK / row_len.max(1)).max(1)
+}
+
+/// `sum_i a_i`, summed in fixed chunks.
+pub fn sum(a: &[f64]) -> f64 {
+    let partial: Vec<f64> = a.par_chunks(CHUNK).map(|x| x.iter().sum::<f64>()).collect();
+    partial.iter().sum()
+}
+
+/// `y += s x`.
+pub fn axpy(s: f64, x: &[f64], y: &mut [f64]) {
+    y.par_iter_mut()
+        .zip(x.par_iter())
+        .for_each(|(y, x)| *y += s * x);
+}
+
+/// Subtracts the mean of `x` (the pressure constant of an enclosed flow).
+pub fn remove_mean(x: &mut [f64]) {
+    let m = sum(x) / x.len() as f64;
+    x.par_iter_mut().for_each(|v| *v -= m);
+}
+
+/// The other two directions of `a`.
+#[inline]
+pub(crate) fn others(a: usize) -> [usize; 2] {
+    [(a + 1) % 3, (a + 2) % 3]
+}
+
+/// The scalar Q1~ operator `alpha M + nu K` on one level (matrix-free).
+#[derive(Debug, Clone)]
+pub struct FaceOperator {
+    pub layout: Layout,
+    /// Element entry of a face with itself, per family.
+    same: [f64; 3],
+    /// Element entry of a face with the opposite face of the cell, per family.
+    opp: [f64; 3],
+    /// Element entry of a face of family `a` with a face of family `b` of the same cell.
+    adj: [[f64; 3]; 3],
+}
+
+impl FaceOperator {
+    /// `alpha M + nu K` with the element entries of [`mass_entries`] and
+    /// [`stiffness_entries`].
+    pub fn helmholtz(grid: &Grid, alpha: f64, nu: f64) -> Self {
+        let (ms, mo, ma) = mass_entries(grid.cell_volume());
+        let (ks, ko, ka) = stiffness_entries(grid.h());
+        let mut adj = [[0.0; 3]; 3];
+        for (a, row) in adj.iter_mut().enumerate() {
+            for b in others(a) {
+                row[b] = alpha * ma + nu * ka[a][b];
+            }
+        }
+        FaceOperator {
+            layout: grid.layout(),
+            same: ks.map(|k| alpha * ms + nu * k),
+            opp: ko.map(|k| alpha * mo + nu * k),
+            adj,
+        }
+    }
+
+    /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`.
+    #[inline]
+    pub(crate) fn row(&self, a: usize, f: [usize; 3], x: &[f64]) -> (f64, f64) {
+        let lay = &self.layout;
+        let mut diag = 0.0;
+        let mut off = 0.0;
+        for (side, cell) in lay.face_cells(a, f).into_iter().enumerate() {
+            let Some(c) = cell else { continue };
+            diag += self.same[a];
+            // the face is the upper face of the minus cell (side 0), the lower face of the
+            // plus cell (side 1); the opposite face is the other one
+            let opp = if side == 0 { c } else { lay.upper(a, c) };
+            off += self.opp[a] * x[lay.face(a, opp)];
+            for b in others(a) {
+                off += self.adj[a][b] * (x[lay.face(b, c)] + x[lay.face(b, lay.upper(b, c))]);
+            }
+        }
+        (diag, off)
+    }
+
+    /// Calls `g(face coords, row output)` for every face of family `a`, rows in parallel.
+    pub(crate) fn par_family<F>(&self, a: usize, out: &mut [f64], g: F)
+    where
+        F: Fn([usize; 3], &mut f64) + Sync,
+    {
+        let lay = &self.layout;
+        let d = lay.fdim[a];
+        out[lay.off[a]..lay.off[a + 1]]
+            .par_chunks_mut(d[0])
+            .with_min_len(min_rows(d[0]))
+            .enumerate()
+            .for_each(|(r, row)| {
+                let (j, k) = (r % d[1], r / d[1]);
+                for (i, o) in row.iter_mut().enumerate() {
+                    g([i, j, k], o);
+                }
+            });
+    }
+
+    /// `y = A x`.
+    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+        for a in 0..3 {
+            self.par_family(a, y, |f, o| {
+                let (d, off) = self.row(a, f, x);
+                *o = d * x[self.layout.face(a, f)] + off;
+            });
+        }
+    }
+
+    /// `r = b - A x` on the free faces, `0` on the faces with `mask` set.
+    pub fn residual(&self, x: &[f64], b: &[f64], mask: &[bool], r: &mut [f64]) {
+        for a in 0..3 {
+            self.par_family(a, r, |f, o| {
+                let i = self.layout.face(a, f);
+                *o = if mask[i] {
+                    0.0
+                } else {
+                    let (d, off) = self.row(a, f, x);
+                    b[i] - d * x[i] - off
+                };
+            });
+        }
+    }
+}
+
+/// Lumped Q1~ mass of every face: `V/6` per adjacent cell (row sums of the mass matrix).
+pub fn lumped_mass(grid: &Grid) -> Vec<f64> {
+    let lay = grid.layout();
+    let v6 = grid.cell_volume() / 6.0;
+    let mut m = vec![0.0; lay.num_faces()];
+    for (a, fam) in [0, 1, 2]
+        .into_iter()
+        .map(|a| (a, lay.off[a]..lay.off[a + 1]))
+    {
+        for (idx, out) in m[fam].iter_mut().enumerate() {
+            let f = lay.face_coords(a, idx);
+            let cells = lay.face_cells(a, f);
+            *out = v6 * cells.iter().flatten().count() as f64;
+        }
+    }
+    m
+}
+
+/// Discrete divergence `D u = -B^T u` (integrated over each cell): `out_T = sum_a |F_a| (u_a on
+/// the upper a-face - u_a on the lower a-face)`.
+pub fn divergence(grid: &Grid, u: [&[f64]; 3], out: &mut [f64]) {
+    let lay = grid.layout();
+    let area = [0, 1, 2].map(|a| grid.face_area(a));
+    out.par_iter_mut().enumerate().for_each(|(c, o)| {
+        let cc = lay.cell_coords(c);
+        let mut s = 0.0;
+        for a in 0..3 {
+            s += area[a] * (u[a][lay.face(a, lay.upper(a, cc))] - u[a][lay.face(a, cc)]);
+        }
+        *o = s;
+    });
+}
+
+/// `u_a += s (B p)_a` on the a-faces of component `a`: `(B p)_F = |F| (p_plus - p_minus)`,
+/// a cell outside the box counting as `p = 0`.
+pub fn add_gradient(grid: &Grid, p: &[f64], s: f64, u: [&mut [f64]; 3]) {
+    let lay = grid.layout();
+    for (a, ua) in u.into_iter().enumerate() {
+        let area = grid.face_area(a);
+        let d = lay.fdim[a];
+        ua[lay.off[a]..lay.off[a + 1]]
+            .par_chunks_mut(d[0])
+            .enumerate()
+            .for_each(|(r, row)| {
+                let (j, k) = (r % d[1], r / d[1]);
+                for (i, o) in row.iter_mut().enumerate() {
+                    let [m, pl] = lay.face_cells(a, [i, j, k]);
+                    let pm = m.map_or(0.0, |c| p[lay.cell(c)]);
+                    let pp = pl.map_or(0.0, |c| p[lay.cell(c)]);
+                    *o += s * area * (pp - pm);
+                }
+            });
+    }
+}
+
+/// Adds the do-nothing boundary load `-int_G p_b n . v dA` of the constant pressures
+/// `pressure[a][side]` given on the do-nothing sides to the right-hand side `rhs` of the
+/// momentum equation (`+|F| p_b` at a lower side, `-|F| p_b` at an upper side).
+pub fn add_boundary_pressure(grid: &Grid, pressure: [[f64; 2]; 3], rhs: [&mut [f64]; 3]) {
+    let lay = grid.layout();
+    for (a, ra) in rhs.into_iter().enumerate() {
+        for (side, pb) in pressure[a].into_iter().enumerate() {
+            if grid.bc[a][side] != BoundaryKind::DoNothing {
+                continue;
+            }
+            let m = if side == 0 { 0 } else { lay.n[a] };
+            let val = if side == 0 { 1.0 } else { -1.0 } * grid.face_area(a) * pb;
+            lay.for_each_face_at(a, m, |i| ra[i] += val);
+        }
+    }
+}
+
+/// The cell-centred 7-point operator `P = B^T M_l^{-1} B` on one level.
+#[derive(Debug, Clone)]
+pub struct CellOperator {
+    pub layout: Layout,
+    /// Coupling across an a-face between two cells: `3 |F_a|^2 / V`.
+    coef: [f64; 3],
+    /// Diagonal factor of the coupling across a box side: 0 wall, 2 do-nothing (lumped
+    /// mass `V/6` instead of `V/3`); unused on periodic sides.
+    bfac: [[f64; 2]; 3],
+}
+
+impl CellOperator {
+    /// `P = B^T M_l^{-1} B` of `grid`.
+    pub fn schur(grid: &Grid) -> Self {
+        let v = grid.cell_volume();
+        let coef = [0, 1, 2].map(|a| 3.0 * grid.face_area(a).powi(2) / v);
+        let bfac = grid.bc.map(|s| {
+            s.map(|k| match k {
+                BoundaryKind::DoNothing => 2.0,
+                _ => 0.0,
+            })
+        });
+        CellOperator {
+            layout: grid.layout(),
+            coef,
+            bfac,
+        }
+    }
+
+    /// Neighbour coordinate of `m` along `d` on `side` (0 lower, 1 upper), `None` across
+    /// a non-periodic box side.
+    #[inline]
+    fn nb(&self, d: usize, side: usize, m: usize) -> Option<usize> {
+        let n = self.layout.n[d];
+        if side == 0 {
+            if m > 0 {
+                Some(m - 1)
+            } else if self.layout.periodic[d] {
+                Some(n - 1)
+            } else {
+                None
+            }
+        } else if m + 1 < n {
+            Some(m + 1)
+        } else if self.layout.periodic[d] {
+            Some(0)
+        } else {
+            None
+        }
+    }
+
+    /// For every cell `i` of row `(j, k)`: `g(i, diag, s)` with `(P x)_i = diag x_i - s`.
+    #[inline]
+    pub(crate) fn for_row(
+        &self,
+        j: usize,
+        k: usize,
+        x: &[f64],
+        mut g: impl FnMut(usize, f64, f64),
+    ) {
+        let [nx, ny, _] = self.layout.n;
+        let mut rows = [(0usize, 0.0f64); 4];
+        let mut cnt = 0;
+        let mut diag_base = 0.0;
+        for (d, m) in [(1, j), (2, k)] {
+            for side in 0..2 {
+                match self.nb(d, side, m) {
+                    Some(mm) => {
+                        let (jj, kk) = if d == 1 { (mm, k) } else { (j, mm) };
+                        rows[cnt] = (nx * (jj + ny * kk), self.coef[d]);
+                        cnt += 1;
+                        diag_base += self.coef[d];
+                    }
+                    None => diag_base += self.bfac[d][side] * self.coef[d],
+                }
+            }
+        }
+        let rows = &rows[..cnt];
+        let base = nx * (j + ny * k);
+        let cx = self.coef[0];
+        for i in 0..nx {
+            let mut diag = diag_base;
+            let mut s = 0.0;
+            for &(st, c) in rows {
+                s += c * x[st + i];
+            }
+            for side in 0..2 {
+                match self.nb(0, side, i) {
+                    Some(ii) => {
+                        diag += cx;
+                        s += cx * x[base + ii];
+                    }
+                    None => diag += self.bfac[0][side] * cx,
+                }
+            }
+            g(i, diag, s);
+        }
+    }
+
+    /// `y = P x`.
+    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+        let [nx, ny, _] = self.layout.n;
+        y.par_chunks_mut(nx)
+            .with_min_len(min_rows(nx))
+            .enumerate()
+            .for_each(|(r, row)| {
+                let (j, k) = (r % ny, r / ny);
+                let base = r * nx;
+                self.for_row(j, k, x, |i, d, s| row[i] = d * x[base + i] - s);
+            });
+    }
+
+    /// `r = b - P x`.
+    pub fn residual(&self, x: &[f64], b: &[f64], r: &mut [f64]) {
+        let [nx, ny, _] = self.layout.n;
+        r.par_chunks_mut(nx)
+            .with_min_len(min_rows(nx))
+            .enumerate()
+            .for_each(|(row_idx, row)| {
+                let (j, k) = (row_idx % ny, row_idx / ny);
+                let base = row_idx * nx;
+                self.for_row(j, k, x, |i, d, s| {
+                    row[i] = b[base + i] - d * x[base + i] + s
+                });
+            });
+    }
+
+    /// One half-sweep of red-black Gauss-Seidel (over-relaxed by `omega`) on the cells of
+    /// colour `colour` (`(i + j + k) % 2`), written to `y` (the other colour copied from
+    /// `x`): the cells of one colour only couple to the other colour, so this is exactly
+    /// the in-place sweep, `y_i = x_i + omega ((b_i + s_i)/d_i - x_i)`.
+    pub fn gauss_seidel_colour(
+        &self,
+        colour: usize,
+        omega: f64,
+        x: &[f64],
+        b: &[f64],
+        y: &mut [f64],
+    ) {
+        let [nx, ny, _] = self.layout.n;
+        y.par_chunks_mut(nx)
+            .with_min_len(min_rows(nx))
+            .enumerate()
+            .for_each(|(r, row)| {
+                let (j, k) = (r % ny, r / ny);
+                let base = r * nx;
+                let par = (j + k + colour) % 2;
+                self.for_row(j, k, x, |i, d, s| {
+                    row[i] = if i % 2 == par && d > 0.0 {
+                        let xi = x[base + i];
+                        xi + omega * ((b[base + i] + s) / d - xi)
+                    } else {
+                        x[base + i]
+                    };
+                });
+            });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::BoundaryKind::*;
+
+    fn grid(bc: crate::grid::Boundaries) -> Grid {
+        Grid::new([0.0, -1.0, 0.5], [1.2, 1.0, 1.5], [3, 4, 2], 2, bc).unwrap()
+    }
+
+    /// Consistency with the continuous operators on cubic cells: the mass matrix applied
+    /// to the constant 1 gives the lumped mass `V/6` per adjacent cell; for the face means
+    /// of u = x^2/2 + 2y - z the stiffness rows of interior faces give
+    /// `int -Laplace(u) phi = -(lumped mass)` to 1e-12 (by hand for an x-face:
+    /// `2 [h * h^2/2 - h * 4 * h^2/6] = -h^3/3 = -2 h^3/6`). On non-cubic boxes the Q1~
+    /// stencil is not exact for quadratics (see the crate docs).
+    #[test]
+    fn operators_reproduce_polynomials() {
+        let g = Grid::new([0.0; 3], [0.6, 0.8, 0.4], [3, 4, 2], 2, [[DoNothing; 2]; 3]).unwrap();
+        let lay = g.layout();
+        let nf = lay.num_faces();
+        let mass = FaceOperator::helmholtz(&g, 1.0, 0.0);
+        let ones = vec![1.0; nf];
+        let mut y = vec![0.0; nf];
+        mass.apply(&ones, &mut y);
+        let ml = lumped_mass(&g);
+        for i in 0..nf {
+            assert!((y[i] - ml[i]).abs() < 1e-14);
+        }
+        // linear function: K u = 0 in interior rows (the element reproduces P1 exactly)
+        let stiff = FaceOperator::helmholtz(&g, 0.0, 1.0);
+        let h = g.h();
+        let mut u = vec![0.0; nf];
+        for a in 0..3 {
+            for (idx, v) in u[lay.off[a]..lay.off[a + 1]].iter_mut().enumerate() {
+                let x = g.face_centre(a, lay.face_coords(a, idx));
+                // face mean of x^2/2 is x_c^2/2 + h^2/24 along the tangential directions
+                let mut m = 0.5 * x[0] * x[0];
+                if a != 0 {
+                    m += h[0] * h[0] / 24.0;
+                }
+                *v = m + 2.0 * x[1] - x[2];
+            }
+        }
+        stiff.apply(&u, &mut y);
+        for a in 0..3 {
+            for idx in 0..lay.fdim[a].iter().product() {
+                let f = lay.face_coords(a, idx);
+                if lay.face_cells(a, f).iter().all(|c| c.is_some()) {
+                    // -Laplace(x^2/2) = -1, tested against the lumped mass
+                    let want = -ml[lay.off[a] + idx];
+                    let got = y[lay.off[a] + idx];
+                    assert!(
+                        (got - want).abs() < 1e-12,
+                        "face {a} {f:?}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// `P = B^T M_l^{-1} B` with the Dirichlet rows of B removed equals the 7-point
+    /// [`CellOperator`], for walls, do-nothing and periodic sides.
+    #[test]
+    fn schur_complement_equals_seven_point_stencil() {
+        let g = grid([
+            [Dirichlet, DoNothing],
+            [Periodic, Periodic],
+            [DoNothing, Dirichlet],
+        ]);
+        let lay = g.layout();
+        let nc = lay.num_cells();
+        let p: Vec<f64> = (0..nc).map(|c| ((c * 37 % 11) as f64).sin()).collect();
+        let mask = g.dirichlet_mask();
+        let ml = lumped_mass(&g);
+        let mut u = [0, 1, 2].map(|_| vec![0.0; lay.num_faces()]);
+        let [u0, u1, u2] = &mut u;
+        add_gradient(&g, &p, 1.0, [u0, u1, u2]);
+        for ua in &mut u {
+            for i in 0..ua.len() {
+                ua[i] = if mask[i] { 0.0 } else { ua[i] / ml[i] };
+            }
+        }
+        let mut want = vec![0.0; nc];
+        divergence(&g, [&u[0], &u[1], &u[2]], &mut want);
+        want.iter_mut().for_each(|w| *w = -*w);
+        let mut got = vec![0.0; nc];
+        CellOperator::schur(&g).apply(&p, &mut got);
+        for c in 0..nc {
+            assert!(
+                (got[c] - want[c]).abs() < 1e-12,
+                "cell {c}: {} vs {}",
+                got[c],
+                want[c]
+            );
+        }
+    }
+
+    /// Discrete divergence of the face means of a linear field u = (x, 2y, -3z) is the cell
+    /// volume times div u = 0; of (x, 0, 0) it is the volume.
+    #[test]
+    fn divergence_of_linear_fields() {
+        let g = grid([[Dirichlet; 2]; 3]);
+        let lay = g.layout();
+        let nf = lay.num_faces();
+        let field = |s: [f64; 3]| {
+            let mut u = [0, 1, 2].map(|_| vec![0.0; nf]);
+            for (d, ud) in u.iter_mut().enumerate() {
+                for a in 0..3 {
+                    for idx in 0..lay.fdim[a].iter().product() {
+                        let x = g.face_centre(a, lay.face_coords(a, idx));
+                        ud[lay.off[a] + idx] = s[d] * x[d];
+                    }
+                }
+            }
+            u
+        };
+        let mut div = vec![0.0; lay.num_cells()];
+        let u = field([1.0, 2.0, -3.0]);
+        divergence(&g, [&u[0], &u[1], &u[2]], &mut div);
+        assert!(div.iter().all(|d| d.abs() < 1e-14));
+        let u = field([1.0, 0.0, 0.0]);
+        divergence(&g, [&u[0], &u[1], &u[2]], &mut div);
+        assert!(div.iter().all(|d| (d - g.cell_volume()).abs() < 1e-14));
+    }
+
+    /// Reductions give the same bits on 1 and 2 threads.
+    #[test]
+    fn dot_is_thread_independent() {
+        let a: Vec<f64> = (0..100_000).map(|i| (i as f64 * 0.37).sin()).collect();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let two = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let d1 = one.install(|| dot(&a, &a));
+        let d2 = two.install(|| dot(&a, &a));
+        assert_eq!(d1.to_bits(), d2.to_bits());
+    }
+}
