@@ -44,10 +44,11 @@ fn free_sphere_turns_at_constant_angular_velocity() {
         let q = [q[0][0], q[1][0], q[2][0], q[3][0]];
         let half: f64 = 0.5 * 5.0 * 0.2;
         let want = [half.cos(), 0.6 * half.sin(), 0.0, 0.8 * half.sin()];
-        // Second-order update: error (|w| dt)^3/24 per step, 4000 steps: 3e-11; 1e-9 bar.
+        // Second-order update: the half angle lags by (|w| dt)^3/24 = 6.5e-13 per step,
+        // 2.6e-9 after 4000 steps; 5e-9 bar.
         for k in 0..4 {
             assert!(
-                (q[k] - want[k]).abs() < 1e-9,
+                (q[k] - want[k]).abs() < 5e-9,
                 "{integrator}: orientation {q:?}, expected {want:?}"
             );
         }
