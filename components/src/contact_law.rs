@@ -52,8 +52,9 @@ pub struct ContactLaw {
 }
 
 /// Where each model keeps its per-contact history in a row of [`crate::ContactHistory`]
-/// (and of [`WallHistory`]): the tangential spring g (3 values), the rolling displacement
-/// (3 values), the JKR contact flag (1 value: 1 while the contact holds).
+/// (and of [`WallHistory`]): the tangential spring g and the sliding flag (3 + 1 values),
+/// the rolling displacement (3 values), the JKR contact flag (1 value: 1 while the
+/// contact holds).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct HistoryLayout {
     pub spring: Option<usize>,
@@ -72,7 +73,7 @@ impl HistoryLayout {
                 layout.width - n
             })
         };
-        let spring = take(laws.iter().any(|l| l.friction.is_some()), 3);
+        let spring = take(laws.iter().any(|l| l.friction.is_some()), 4);
         let rolling = take(laws.iter().any(|l| l.rolling.is_some()), 3);
         let bond = take(laws.iter().any(|l| l.adhesion.is_some()), 1);
         Self {

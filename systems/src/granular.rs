@@ -147,10 +147,12 @@ struct Geometry<T> {
     spin: V3<T>,
 }
 
-/// Per-contact history in lanes: tangential spring, rolling displacement, JKR flag.
+/// Per-contact history in lanes: tangential spring and sliding flag, rolling
+/// displacement, JKR flag.
 #[derive(Clone, Copy)]
 struct History<T> {
     spring: V3<T>,
+    sliding: T,
     rolling: V3<T>,
     bond: T,
 }
@@ -219,8 +221,10 @@ fn interact<T: Real, D: NormalDamping>(
     if layout.spring.is_some() {
         let mut spring = hist.spring.scale(flip);
         let c_s = c.tangential_per_radius * a + c.tangential_constant;
+        let mut sliding = hist.sliding;
         tangential = coulomb_tangential_force(
             &mut spring,
+            &mut sliding,
             g.n,
             u_t,
             load,
@@ -230,6 +234,7 @@ fn interact<T: Real, D: NormalDamping>(
             dt,
         );
         hist.spring = V3::select(touching, spring.scale(flip), V3::zero());
+        hist.sliding = T::select(touching, sliding, zero);
     }
     let mut rolling = V3::zero();
     if layout.rolling.is_some() {
@@ -260,6 +265,7 @@ impl<T: Real> History<T> {
         };
         Self {
             spring: v3(layout.spring),
+            sliding: layout.spring.map_or(T::splat(0.0), |o| value(o + 3)),
             rolling: v3(layout.rolling),
             bond: layout.bond.map_or(T::splat(0.0), value),
         }
@@ -274,6 +280,9 @@ impl<T: Real> History<T> {
                 put(o + 1, v.y);
                 put(o + 2, v.z);
             }
+        }
+        if let Some(o) = layout.spring {
+            put(o + 3, self.sliding);
         }
         if let Some(o) = layout.bond {
             put(o, self.bond);

@@ -41,5 +41,5 @@ pub fn rolling_resistance_force<T: Real>(
     dt: T,
 ) -> V3<T> {
     let cap = mu_r * normal_load;
-    capped_spring_dashpot(xi, n, u_r, c_r, d_r, [cap, cap], dt)
+    capped_spring_dashpot(xi, n, u_r, c_r, d_r, [cap, cap], dt).0
 }

@@ -394,3 +394,221 @@ pub fn glass_pair(damping: String) -> ImpactScene {
         damping,
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Helpers for the contact-model tests (friction, rolling resistance, JKR adhesion).
+
+pub fn angular_velocity(sim: &Simulation, id: u32) -> [f64; 3] {
+    let i = row(sim, id);
+    let p = sim.world.resource::<Particles>();
+    [
+        p.angular_velocity[0][i],
+        p.angular_velocity[1][i],
+        p.angular_velocity[2][i],
+    ]
+}
+
+/// Contact force on particle `id` of the last step (body forces excluded).
+pub fn contact_force(sim: &Simulation, id: u32) -> [f64; 3] {
+    let i = row(sim, id);
+    let p = sim.world.resource::<Particles>();
+    [p.force[0][i], p.force[1][i], p.force[2][i]]
+}
+
+/// Simulated time, s.
+pub fn sim_time(sim: &Simulation) -> f64 {
+    sim.world.resource::<grainflow_components::SimClock>().time
+}
+
+/// One step; panics if the run failed.
+pub fn step_ok(sim: &mut Simulation) {
+    sim.step();
+    if let Some(f) = sim.failure() {
+        panic!("run failed at t = {:e} s: {f}", sim_time(sim));
+    }
+}
+
+/// Set the body acceleration of every material to `g` during a run (scenes without
+/// `[fluid]`, where it is the gravity itself): a slowly turned gravity vector is a plane
+/// tilted quasi-statically.
+pub fn set_gravity(sim: &mut Simulation, g: [f64; 3]) {
+    let mut body = sim
+        .world
+        .resource_mut::<grainflow_components::BodyAcceleration>();
+    for m in body.per_material.iter_mut() {
+        *m = g;
+    }
+}
+
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+pub fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// A TOML float (the `{:e}` form, which TOML reads, e.g. `2.5e-3`).
+pub fn toml_f(x: f64) -> String {
+    format!("{x:e}")
+}
+
+pub fn toml_v(v: [f64; 3]) -> String {
+    format!("[{:e}, {:e}, {:e}]", v[0], v[1], v[2])
+}
+
+/// The `[simulation]` table.
+pub fn simulation_toml(dt: f64, integrator: &str, gravity: [f64; 3]) -> String {
+    format!(
+        "[simulation]\ndt = {}\nend_time = 1.0\nintegrator = \"{integrator}\"\ngravity = {}\n\n",
+        toml_f(dt),
+        toml_v(gravity)
+    )
+}
+
+/// A `[[materials]]` table; `extra` holds further lines (damping law, friction, ...).
+pub fn material_toml(
+    name: &str,
+    density: f64,
+    youngs_modulus: f64,
+    nu: f64,
+    extra: &str,
+) -> String {
+    format!(
+        "[[materials]]\nname = \"{name}\"\ndensity = {}\nyoungs_modulus = {}\npoisson_ratio = {nu}\n{extra}\n\n",
+        toml_f(density),
+        toml_f(youngs_modulus)
+    )
+}
+
+/// A rigid wall material: E = 1e25 Pa makes its (1-nu^2)/E and (2-nu)/G terms 1e-14 or
+/// less of any sphere's here, so E* and G* are the sphere's alone. `extra` must give the
+/// same damping kind as the spheres' material.
+pub fn rigid_material_toml(name: &str, extra: &str) -> String {
+    material_toml(name, 1.0, 1e25, 0.0, extra)
+}
+
+/// A plane wall through `point` with unit `normal`.
+pub fn plane_toml(material: &str, point: [f64; 3], normal: [f64; 3]) -> String {
+    format!(
+        "[[walls]]\ntype = \"plane\"\nmaterial = \"{material}\"\npoint = {}\nnormal = {}\n\n",
+        toml_v(point),
+        toml_v(normal)
+    )
+}
+
+/// A `[[spheres]]` entry.
+pub fn sphere_toml(
+    material: &str,
+    radius: f64,
+    position: [f64; 3],
+    velocity: [f64; 3],
+    angular_velocity: [f64; 3],
+    fixed: bool,
+) -> String {
+    format!(
+        "[[spheres]]\nmaterial = \"{material}\"\nradius = {}\nposition = {}\nvelocity = {}\n\
+         angular_velocity = {}\nfixed = {fixed}\n\n",
+        toml_f(radius),
+        toml_v(position),
+        toml_v(velocity),
+        toml_v(angular_velocity)
+    )
+}
+
+/// Static Hertz overlap of a sphere pressed by `load` against a rigid plane:
+/// load = (4/3) E* sqrt(R) delta^(3/2).
+pub fn hertz_static_overlap(e_star: f64, radius: f64, load: f64) -> f64 {
+    (load / (4.0 / 3.0 * e_star * radius.sqrt())).powf(2.0 / 3.0)
+}
+
+/// Mindlin's tangential stiffness 8 G* a of a sphere (E, nu) on a rigid plane at overlap
+/// `delta`: 1/G* = (2 - nu)/G, G = E/(2(1+nu)), a = sqrt(R delta).
+pub fn mindlin_stiffness_on_rigid(e: f64, nu: f64, radius: f64, delta: f64) -> f64 {
+    let g = e / (2.0 * (1.0 + nu));
+    8.0 * g / (2.0 - nu) * (radius * delta).sqrt()
+}
+
+/// A sphere on the rigid plane z = 0 (normal +z), for the friction and rolling tests.
+/// Gravity may be tilted (the scene's `gravity`); the sphere starts at the static Hertz
+/// overlap of the normal component `g_n` of gravity, so that no normal oscillation starts.
+#[derive(Debug, Clone)]
+pub struct Ball {
+    pub radius: f64,
+    pub density: f64,
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+    /// Contact-law lines of the ball's material and of the plane's (same damping kind).
+    pub lines: String,
+    pub wall_lines: String,
+}
+
+impl Ball {
+    pub fn mass(&self) -> f64 {
+        sphere_mass(self.density, self.radius)
+    }
+    /// E* against the rigid plane: E/(1 - nu^2).
+    pub fn e_star(&self) -> f64 {
+        self.youngs_modulus / (1.0 - self.poisson_ratio * self.poisson_ratio)
+    }
+    pub fn rest_overlap(&self, g_n: f64) -> f64 {
+        hertz_static_overlap(self.e_star(), self.radius, self.mass() * g_n)
+    }
+    /// Normal contact stiffness at rest: dF/d delta = 2 E* a = (3/2) m g_n / delta.
+    pub fn normal_stiffness(&self, g_n: f64) -> f64 {
+        1.5 * self.mass() * g_n / self.rest_overlap(g_n)
+    }
+    /// Mindlin's c_s = 8 G* a at rest.
+    pub fn tangential_stiffness(&self, g_n: f64) -> f64 {
+        mindlin_stiffness_on_rigid(
+            self.youngs_modulus,
+            self.poisson_ratio,
+            self.radius,
+            self.rest_overlap(g_n),
+        )
+    }
+    /// Critical damping of the contact point's tangential oscillation at rest: a sphere
+    /// that rolls on its contact point has the tangential mass m / (1 + m R^2/I) = 2m/7.
+    pub fn critical_tangential_damping(&self, g_n: f64) -> f64 {
+        2.0 * (self.tangential_stiffness(g_n) * 2.0 / 7.0 * self.mass()).sqrt()
+    }
+    /// The shorter of the normal period 2 pi sqrt(m/k_n) and the contact point's
+    /// tangential period 2 pi sqrt(2m/(7 c_s)) at rest.
+    pub fn shortest_period(&self, g_n: f64) -> f64 {
+        let m = self.mass();
+        let normal = 2.0 * std::f64::consts::PI * (m / self.normal_stiffness(g_n)).sqrt();
+        let tangential =
+            2.0 * std::f64::consts::PI * (2.0 / 7.0 * m / self.tangential_stiffness(g_n)).sqrt();
+        normal.min(tangential)
+    }
+    /// The ball resting on the plane at x = 0 with `velocity` and `spin`.
+    pub fn scene(
+        &self,
+        dt: f64,
+        integrator: &str,
+        gravity: [f64; 3],
+        g_n: f64,
+        velocity: [f64; 3],
+        spin: [f64; 3],
+    ) -> Simulation {
+        let text = simulation_toml(dt, integrator, gravity)
+            + &material_toml(
+                "ball",
+                self.density,
+                self.youngs_modulus,
+                self.poisson_ratio,
+                &self.lines,
+            )
+            + &rigid_material_toml("rigid", &self.wall_lines)
+            + &plane_toml("rigid", [0.0; 3], [0.0, 0.0, 1.0])
+            + &sphere_toml(
+                "ball",
+                self.radius,
+                [0.0, 0.0, self.radius - self.rest_overlap(g_n)],
+                velocity,
+                spin,
+                false,
+            );
+        simulation(&text, "ball_on_plane.toml")
+    }
+}
