@@ -332,6 +332,9 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             .position(|m| m.name == name)
             .expect("validated material name") as u16
     };
+    if let Some(f) = &scene.fluid {
+        crate::fluid::fluid_grid(f, path)?;
+    }
     let rho_f = scene.fluid.as_ref().map_or(0.0, |f| f.density);
     let g = scene.simulation.gravity;
     let body = BodyAcceleration {
@@ -403,8 +406,11 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
     let damped = scene.materials.iter().any(|m| {
         m.restitution.is_some_and(|e| e < 1.0) || m.normal_damping.is_some_and(|d| d > 0.0)
     });
-    match scene.simulation.integrator {
-        crate::scene::IntegratorName::Gear => {
+    // A scene without particles (a flow only) runs no DEM system.
+    let integrator = scene.has_particles().then_some(scene.simulation.integrator);
+    match integrator {
+        None => {}
+        Some(crate::scene::IntegratorName::Gear) => {
             world.insert_resource(IntegratorKind::Gear);
             let mut gear = GearState {
                 alpha0: if damped { 19.0 / 90.0 } else { 19.0 / 120.0 },
@@ -413,7 +419,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             gear.resize_rows(particles.len());
             world.insert_resource(gear);
         }
-        crate::scene::IntegratorName::VelocityVerlet => {
+        Some(crate::scene::IntegratorName::VelocityVerlet) => {
             world.insert_resource(IntegratorKind::VelocityVerlet);
             let mut state = VerletState::default();
             state.resize_rows(particles.len());
@@ -433,7 +439,9 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             });
         }
         if laws.has_torques() {
-            let kind = *world.resource::<IntegratorKind>();
+            let kind = *world
+                .get_resource::<IntegratorKind>()
+                .expect("contact laws need particles");
             let mut rotation = Rotation {
                 aux: vec![Default::default(); grainflow_systems::rotation::aux_columns(kind)],
                 ..Default::default()

@@ -125,6 +125,19 @@ fn check(args: CheckArgs) -> ExitCode {
         }
         let _ = writeln!(out, "    {name}");
     }
+    if let Some(f) = &scene.fluid {
+        match crate::fluid::fluid_grid(f, &args.scene) {
+            Ok(Some(grid)) => out.push_str(&crate::fluid::check_report(f, &grid)),
+            Ok(None) => {
+                let _ = writeln!(
+                    out,
+                    "fluid      rho_f = {} (buoyancy only, no flow grid)",
+                    f.density
+                );
+            }
+            Err(e) => return bad_input(e),
+        }
+    }
     let mut verdict = ExitCode::SUCCESS;
     match &sim.estimate {
         Some(est) => {

@@ -2,6 +2,7 @@
 //! scene files, world building, schedules, run loop and output.
 pub mod build;
 pub mod cli;
+pub mod fluid;
 pub mod lammps;
 pub mod output;
 pub mod run;

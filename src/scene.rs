@@ -43,6 +43,7 @@ pub struct Scene {
     pub fluid: Option<Fluid>,
     #[serde(default)]
     pub neighbour: Neighbour,
+    #[serde(default)]
     pub materials: Vec<MaterialSpec>,
     #[serde(default)]
     pub walls: Vec<WallSpec>,
@@ -110,6 +111,111 @@ fn default_seed() -> u64 {
 pub struct Fluid {
     /// Fluid density rho_f, kg/m^3: buoyancy (rho - rho_f) V g.
     pub density: f64,
+    /// Kinematic viscosity nu, m^2/s (required with a grid).
+    pub viscosity: Option<f64>,
+    /// Lower corner of the fluid box (required with a grid).
+    pub min: Option<[f64; 3]>,
+    /// Upper corner of the fluid box (required with a grid).
+    pub max: Option<[f64; 3]>,
+    /// Cells per direction of the coarse grid (level 1); or give `cell_size`.
+    pub cells: Option<[usize; 3]>,
+    /// Edge of the coarse cells, dividing every side of the box; or give `cells`.
+    pub cell_size: Option<f64>,
+    /// Grid level: coarse cells x 2^(level-1) per direction.
+    #[serde(default = "default_level")]
+    pub level: u32,
+    /// Fluid time step dt_F, s (required with a grid).
+    pub dt: Option<f64>,
+    #[serde(default)]
+    pub scheme: FluidScheme,
+    #[serde(default)]
+    pub boundaries: FluidBoundaries,
+}
+
+fn default_level() -> u32 {
+    1
+}
+
+/// Time stepping of the flow (backward Euler is used for the first step of the others).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FluidScheme {
+    #[default]
+    FractionalStep,
+    CrankNicolson,
+    BackwardEuler,
+}
+
+/// Boundary conditions of the six sides of the fluid box (default: no-slip walls).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluidBoundaries {
+    #[serde(default)]
+    pub xmin: FluidBoundary,
+    #[serde(default)]
+    pub xmax: FluidBoundary,
+    #[serde(default)]
+    pub ymin: FluidBoundary,
+    #[serde(default)]
+    pub ymax: FluidBoundary,
+    #[serde(default)]
+    pub zmin: FluidBoundary,
+    #[serde(default)]
+    pub zmax: FluidBoundary,
+}
+
+impl FluidBoundaries {
+    /// The sides as `[[lower, upper]; 3]` with their names.
+    pub fn sides(&self) -> [[(&'static str, &FluidBoundary); 2]; 3] {
+        [
+            [("xmin", &self.xmin), ("xmax", &self.xmax)],
+            [("ymin", &self.ymin), ("ymax", &self.ymax)],
+            [("zmin", &self.zmin), ("zmax", &self.zmax)],
+        ]
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum FluidBoundary {
+    /// No-slip wall, or a moving wall (lid) with the given tangential velocity.
+    Wall {
+        #[serde(default)]
+        velocity: [f64; 3],
+    },
+    /// Prescribed inflow: `velocity` uniform over the side, or its peak of a parabolic
+    /// profile vanishing on the side's edges.
+    Inflow {
+        velocity: [f64; 3],
+        #[serde(default)]
+        profile: InflowProfile,
+    },
+    /// Do-nothing outflow.
+    Outflow,
+    /// Periodic with the opposite side (both sides must say so).
+    Periodic,
+}
+
+impl Default for FluidBoundary {
+    fn default() -> Self {
+        FluidBoundary::Wall { velocity: [0.0; 3] }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InflowProfile {
+    #[default]
+    Uniform,
+    Parabolic,
+}
+
+impl Fluid {
+    /// Whether the scene solves the flow (it gives a grid), or only uses the fluid
+    /// density for buoyancy.
+    pub fn has_grid(&self) -> bool {
+        self.cells.is_some() || self.cell_size.is_some()
+    }
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -377,6 +483,17 @@ pub struct InflowSpec {
     pub velocity_jitter: f64,
 }
 
+impl Scene {
+    /// Whether the scene has particles (placed or inflowing) or walls: the DEM part.
+    pub fn has_particles(&self) -> bool {
+        !(self.spheres.is_empty()
+            && self.blocks.is_empty()
+            && self.lammps.is_empty()
+            && self.inflows.is_empty()
+            && self.walls.is_empty())
+    }
+}
+
 /// Read a scene file and apply `overrides` (`KEY=VALUE`, dotted keys, numeric parts index
 /// arrays: `walls.0.remove_at=1.5`).
 pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
@@ -528,6 +645,108 @@ fn known_material(scene: &Scene, field: String, name: &str) -> Result<(), Invali
     }
 }
 
+/// The fluid grid: a box divided into whole cells, a positive viscosity and time step,
+/// consistent periodic sides.
+fn validate_fluid_grid(f: &Fluid) -> Result<(), Invalid> {
+    if !f.has_grid() {
+        for (name, given) in [
+            ("viscosity", f.viscosity.is_some()),
+            ("min", f.min.is_some()),
+            ("max", f.max.is_some()),
+            ("dt", f.dt.is_some()),
+        ] {
+            if given {
+                return Err((
+                    format!("fluid.{name}"),
+                    "has no effect without a grid: give `cells` or `cell_size` too".into(),
+                ));
+            }
+        }
+        return Ok(());
+    }
+    let need = |name: &str| {
+        (
+            format!("fluid.{name}"),
+            "expected with a fluid grid".to_string(),
+        )
+    };
+    let nu = f.viscosity.ok_or_else(|| need("viscosity"))?;
+    positive("fluid.viscosity".into(), nu)?;
+    let dt = f.dt.ok_or_else(|| need("dt"))?;
+    positive("fluid.dt".into(), dt)?;
+    let min = f.min.ok_or_else(|| need("min"))?;
+    let max = f.max.ok_or_else(|| need("max"))?;
+    finite3("fluid.min".into(), min)?;
+    finite3("fluid.max".into(), max)?;
+    if (0..3).any(|d| max[d] <= min[d]) {
+        return Err((
+            "fluid.max".into(),
+            format!("expected max > min in every coordinate, got min {min:?} max {max:?}"),
+        ));
+    }
+    if !(1..=8).contains(&f.level) {
+        return Err((
+            "fluid.level".into(),
+            format!("expected a level from 1 to 8, got {}", f.level),
+        ));
+    }
+    match (f.cells, f.cell_size) {
+        (Some(_), Some(_)) => {
+            return Err((
+                "fluid.cell_size".into(),
+                "give either cells or cell_size, not both".into(),
+            ))
+        }
+        (Some(cells), None) => {
+            if cells.contains(&0) {
+                return Err((
+                    "fluid.cells".into(),
+                    format!("expected at least one cell per direction, got {cells:?}"),
+                ));
+            }
+        }
+        (None, Some(h)) => {
+            positive("fluid.cell_size".into(), h)?;
+            for d in 0..3 {
+                let n = (max[d] - min[d]) / h;
+                if (n - n.round()).abs() > 1e-9 * n.max(1.0) || n.round() < 1.0 {
+                    return Err((
+                        "fluid.cell_size".into(),
+                        format!(
+                            "{h} does not divide the box side {} (length {}) into whole cells: {n} cells",
+                            ["x", "y", "z"][d],
+                            max[d] - min[d]
+                        ),
+                    ));
+                }
+            }
+        }
+        (None, None) => unreachable!("has_grid"),
+    }
+    for (d, [(lo_name, lo), (hi_name, hi)]) in f.boundaries.sides().into_iter().enumerate() {
+        let periodic = [lo, hi].map(|b| *b == FluidBoundary::Periodic);
+        if periodic[0] != periodic[1] {
+            return Err((
+                format!(
+                    "fluid.boundaries.{}",
+                    if periodic[0] { hi_name } else { lo_name }
+                ),
+                format!(
+                    "expected `periodic` on both {} sides: a periodic side needs its opposite",
+                    ["x", "y", "z"][d]
+                ),
+            ));
+        }
+        for (name, side) in [(lo_name, lo), (hi_name, hi)] {
+            if let FluidBoundary::Wall { velocity } | FluidBoundary::Inflow { velocity, .. } = side
+            {
+                finite3(format!("fluid.boundaries.{name}.velocity"), *velocity)?;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Contact-law fields: ranges, and no model parameter without its model.
 fn validate_surface(v: &SurfaceSpec, at: &str) -> Result<(), Invalid> {
     let f = |name: &str| format!("{at}.{name}");
@@ -602,11 +821,12 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 format!("expected a number >= 0, got {}", f.density),
             ));
         }
+        validate_fluid_grid(f)?;
     }
     if let Some(skin) = s.neighbour.skin {
         positive("neighbour.skin".into(), skin)?;
     }
-    if s.materials.is_empty() {
+    if s.materials.is_empty() && s.has_particles() {
         return Err((
             "materials".into(),
             "expected at least one [[materials]] entry".into(),

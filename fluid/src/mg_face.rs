@@ -20,6 +20,14 @@
 //!   reverse order after the coarse-grid correction.
 //! * Coarse operators: rediscretised on each level; coarse-grid correction with adaptive
 //!   step length as in [`crate::mg_cell`]; coarsest level: conjugate gradients.
+//! * Momentum (Oseen) problems `alpha M_l + nu K + N(w)` ([`FaceMg::set_operator`],
+//!   [`FaceMg::set_convection`]): the convecting velocity `w` is carried to the coarse
+//!   levels by the mean of the four fine faces that make up a coarse face (exact for the
+//!   face-mean degrees of freedom), and each level rediscretises `N(w)`
+//!   ([`crate::ops::Convection`]). The operator is then non-symmetric: the step length
+//!   of the coarse-grid correction minimises the residual, `alpha = (r, Av)/(Av, Av)`,
+//!   and the coarsest level is solved by BiCGStab (van der Vorst 1992, SIAM J. Sci. Stat.
+//!   Comput. 13:631) to 1e-10 relative.
 //!
 //! Dirichlet faces (box sides of kind Dirichlet on every level, plus any extra mask given
 //! for the finest level such as fictitious-boundary markers) keep their values: they have
@@ -154,6 +162,7 @@ impl FaceTransfer {
 }
 
 struct FaceLevel {
+    grid: Grid,
     op: FaceOperator,
     mask: Vec<bool>,
     transfer: Option<FaceTransfer>,
@@ -197,6 +206,7 @@ impl FaceMg {
                 };
                 let transfer = g.coarser().map(|c| FaceTransfer::new(&c, g, &mask));
                 FaceLevel {
+                    grid: g.clone(),
                     op: FaceOperator::helmholtz(g, alpha, nu),
                     mask,
                     transfer,
@@ -212,6 +222,34 @@ impl FaceMg {
             levels,
             smoothing: (2, 2),
             cycle: Cycle::V,
+        }
+    }
+
+    /// Replaces the operators of all levels by `alpha M + nu K` (consistent mass) or
+    /// `alpha M_l + nu K` (`lumped`, see [`FaceOperator::lumped`]), without convection.
+    pub fn set_operator(&mut self, alpha: f64, nu: f64, lumped: bool) {
+        for l in &mut self.levels {
+            l.op = if lumped {
+                FaceOperator::lumped(&l.grid, alpha, nu)
+            } else {
+                FaceOperator::helmholtz(&l.grid, alpha, nu)
+            };
+        }
+    }
+
+    /// Adds the linearised convection `N(w)` of the finest-level velocity `w` to the
+    /// operators of all levels (keeping `alpha` and `nu` of [`FaceMg::set_operator`]); `w`
+    /// reaches the coarser levels as the mean of the four fine faces of each coarse face.
+    pub fn set_convection(&mut self, w: [&[f64]; 3]) {
+        let mut cur: [Vec<f64>; 3] = w.map(|c| c.to_vec());
+        for k in (0..self.levels.len()).rev() {
+            let l = &mut self.levels[k];
+            let op = std::mem::replace(&mut l.op, FaceOperator::helmholtz(&l.grid, 0.0, 0.0));
+            l.op = op.with_convection(&l.grid, [&cur[0], &cur[1], &cur[2]]);
+            if let Some(coarse) = l.grid.coarser() {
+                let fine = l.grid.layout();
+                cur = cur.map(|c| restrict_face_means(&coarse, &fine, &c));
+            }
         }
     }
 
@@ -276,7 +314,11 @@ impl FaceMg {
     /// One cycle on level `k` for `levels[k].x` with right-hand side `levels[k].b`.
     fn cycle(&mut self, k: usize) {
         if k == 0 {
-            coarse_cg(&mut self.levels[0]);
+            if self.levels[0].op.has_convection() {
+                coarse_bicgstab(&mut self.levels[0]);
+            } else {
+                coarse_cg(&mut self.levels[0]);
+            }
             return;
         }
         let (nu1, nu2) = self.smoothing;
@@ -310,11 +352,95 @@ impl FaceMg {
                 *v = 0.0
             }
         });
-        let num = dot(&fine.r, &fine.tmp);
-        let den = dot(&fine.av, &fine.tmp);
+        // symmetric: energy-minimising step; with convection: residual-minimising step
+        let (num, den) = if fine.op.has_convection() {
+            (dot(&fine.r, &fine.av), dot(&fine.av, &fine.av))
+        } else {
+            (dot(&fine.r, &fine.tmp), dot(&fine.av, &fine.tmp))
+        };
         let alpha = if den > 0.0 { num / den } else { 1.0 };
         axpy(alpha, &fine.tmp, &mut fine.x);
         Self::smooth(fine, nu2, false);
+    }
+}
+
+/// Coarse face values as the mean of the four fine faces covering each coarse face
+/// (`fine` one level finer than `coarse`; the face-mean of a field over a coarse face is
+/// exactly the mean of its four sub-face means).
+fn restrict_face_means(coarse: &Grid, fine: &crate::grid::Layout, x: &[f64]) -> Vec<f64> {
+    let cl = coarse.layout();
+    let mut out = vec![0.0; cl.num_faces()];
+    for a in 0..3 {
+        let range = cl.off[a]..cl.off[a + 1];
+        out[range].par_iter_mut().enumerate().for_each(|(idx, o)| {
+            let fc = cl.face_coords(a, idx);
+            let [b, c] = others(a);
+            let mut s = 0.0;
+            for db in 0..2 {
+                for dc in 0..2 {
+                    let mut f = fc.map(|v| 2 * v);
+                    f[b] += db;
+                    f[c] += dc;
+                    s += x[fine.face(a, f)];
+                }
+            }
+            *o = 0.25 * s;
+        });
+    }
+    out
+}
+
+/// `y = A x` with the masked rows set to zero.
+fn masked_apply(l: &FaceLevel, x: &[f64], y: &mut [f64]) {
+    l.op.apply(x, y);
+    for (yi, &m) in y.iter_mut().zip(&l.mask) {
+        if m {
+            *yi = 0.0;
+        }
+    }
+}
+
+/// BiCGStab on the free faces of the coarsest level (1e-10 relative, at most `2 n`
+/// steps; serial: the coarsest level is small).
+fn coarse_bicgstab(l: &mut FaceLevel) {
+    let n = l.x.len();
+    l.op.residual(&l.x, &l.b, &l.mask, &mut l.r);
+    let r0 = l.r.clone();
+    let mut p = l.r.clone();
+    let mut v = vec![0.0; n];
+    let mut s = vec![0.0; n];
+    let mut t = vec![0.0; n];
+    let mut rho = serial_dot(&r0, &l.r);
+    let stop = 1e-20 * serial_dot(&l.r, &l.r);
+    for _ in 0..2 * n {
+        if serial_dot(&l.r, &l.r) <= stop || rho == 0.0 {
+            break;
+        }
+        masked_apply(l, &p, &mut v);
+        let alpha = rho / serial_dot(&r0, &v);
+        for i in 0..n {
+            s[i] = l.r[i] - alpha * v[i];
+        }
+        masked_apply(l, &s, &mut t);
+        let tt = serial_dot(&t, &t);
+        let omega = if tt > 0.0 {
+            serial_dot(&t, &s) / tt
+        } else {
+            0.0
+        };
+        for i in 0..n {
+            l.x[i] += alpha * p[i] + omega * s[i];
+            l.r[i] = s[i] - omega * t[i];
+        }
+        let rho_new = serial_dot(&r0, &l.r);
+        if omega == 0.0 {
+            break;
+        }
+        let beta = rho_new / rho * alpha / omega;
+        rho = rho_new;
+        for i in 0..n {
+            p[i] = l.r[i] + beta * (p[i] - omega * v[i]);
+        }
     }
 }
 

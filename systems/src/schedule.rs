@@ -94,6 +94,11 @@ pub struct SystemEntry {
 fn always(_: &World) -> bool {
     true
 }
+/// The DEM part runs when the scene has particles (or walls and inflows): the world then
+/// has an integrator.
+fn has_dem(w: &World) -> bool {
+    w.contains_resource::<IntegratorKind>()
+}
 fn uses_gear(w: &World) -> bool {
     w.get_resource::<IntegratorKind>() == Some(&IntegratorKind::Gear)
 }
@@ -104,7 +109,7 @@ fn has_walls(w: &World) -> bool {
     w.contains_resource::<Walls>()
 }
 fn frictionless(w: &World) -> bool {
-    !has_contact_laws(w)
+    has_dem(w) && !has_contact_laws(w)
 }
 fn wall_history(w: &World) -> bool {
     has_contact_laws(w) && has_walls(w)
@@ -225,7 +230,7 @@ pub const REGISTRY: &[SystemEntry] = &[
         name: "verlet_list",
         set: StepSet::NeighbourList,
         phase: Phase::Both,
-        wanted: always,
+        wanted: has_dem,
         add: |s, set| {
             s.add_systems(neighbour_list::verlet_list.in_set(set));
         },
@@ -378,7 +383,7 @@ pub const REGISTRY: &[SystemEntry] = &[
         name: "stability_monitor",
         set: StepSet::Monitor,
         phase: Phase::Both,
-        wanted: always,
+        wanted: has_dem,
         add: |s, set| {
             s.add_systems(monitor::stability_monitor.in_set(set));
         },

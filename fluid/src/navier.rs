@@ -1,0 +1,811 @@
+//! Transient incompressible Navier-Stokes steps for the Q1~/Q0 pair by the discrete
+//! projection method.
+//!
+//! # Equations
+//! `du/dt + (u . grad) u - nu Laplace u + grad p = 0`, `div u = 0` (density 1; the viscous
+//! term in the Laplacian form, see the crate docs), discretised in space as
+//! `M_l du/dt + (nu K + N(u)) u + B p = 0`, `B^T u = 0` with the lumped Q1~ mass `M_l`,
+//! the stiffness `K`, the convection `N(u)` of [`crate::ops::Convection`] (dual-cell
+//! fluxes with Samarskij upwinding: second order in `h` for a fixed viscosity, first
+//! order where the cell Peclet number is large) and the gradient `B`.
+//!
+//! # Time stepping
+//! Every scheme is a sequence of substeps of the one-step theta form (Turek 1999,
+//! "Efficient solvers for incompressible flow problems", sec. 3.3, eqs. for the
+//! fractional-step theta scheme; Glowinski 2003, "Finite element methods for
+//! incompressible viscous flow", ch. 6): with `A(w) = nu K + N(w)`,
+//!
+//! `[M_l + w_i A(u*)] u_new + k_s B p_new = [M_l - w_e A(u_old)] u_old`
+//!
+//! * backward Euler ([`TimeScheme::BackwardEuler`], order 1): one substep
+//!   `(k_s, w_i, w_e) = (k, k, 0)`;
+//! * Crank-Nicolson ([`TimeScheme::CrankNicolson`], order 2): `(k, k/2, k/2)`;
+//! * fractional-step theta ([`TimeScheme::FractionalStepTheta`], order 2, strongly
+//!   A-stable): three substeps `(theta k, a theta k, b theta k)`,
+//!   `(theta' k, b theta' k, a theta' k)`, `(theta k, a theta k, b theta k)` with
+//!   `theta = 1 - sqrt(2)/2`, `theta' = 1 - 2 theta`, `a = (1 - 2 theta)/(1 - theta)`,
+//!   `b = 1 - a`.
+//!
+//! The implicit convection is linearised about `u*`: for the second-order schemes the
+//! linear extrapolation `u* = u_old + k_s/k_prev (u_old - u_prev)` from the two previous
+//! substeps (error `O(k^2)` in `A(u*)`, hence `O(k^3)` per substep), for backward Euler
+//! (and the first substep of a run) `u* = u_old` (one Picard step per time step).
+//!
+//! # Discrete projection
+//! Turek 1999, sec. 3.3 ("discrete projection"; Van Kan 1986's incremental pressure
+//! correction in algebraic form), with the lumped mass in both the momentum equation and
+//! the Schur complement:
+//! 1. momentum: `[M_l + w_i A(u*)] u~ = [M_l - w_e A(u_old)] u_old - k_s B p_old`
+//!    ([`FaceMg`] with `alpha = 1/w_i`, the convection of `u*`, one solve per component);
+//! 2. pressure: `P q = B^T u~ / k_s` with `P = B^T M_l^{-1} B` ([`PressureMg`]);
+//! 3. `u_new = u~ - k_s M_l^{-1} B q`,
+//!    `p_new = p_old + q + 1/2 (w_i / k_s) nu M_p^{-1} B^T u~` (`M_p = diag |T|`).
+//!
+//! Then `B^T u_new = 0` up to the pressure solver's tolerance, and the splitting error is
+//! `w_i k_s A M_l^{-1} B q = O(k^3)` per substep because `q = O(k)`, so the schemes keep
+//! their order in time (for the velocity). The last pressure term is the viscous part of
+//! the Cahouet-Chabard approximation of the Schur complement inverse,
+//! `(k_s B^T (M_l + w_i A)^{-1} B)^{-1} ~ (k_s P)^{-1} + (w_i/k_s) nu M_p^{-1}` (Cahouet &
+//! Chabard 1988, Int. J. Numer. Meth. Fluids 8:869), i.e. the "rotational" pressure
+//! correction `p += -nu div u~` (Timmermans, Minev & Van De Vosse 1996, Int. J. Numer.
+//! Meth. Fluids 22:673) in discrete form. Without it the pressure modes with
+//! `w_i nu |kappa|^2 >> 1` are corrected by only a fraction `1 / (w_i nu kappa^2)` per
+//! step: steady states reached with large steps converged at ~1 % per step (measured on
+//! the cavity). The factor 1/2: for Q1~ the ratio of `B^T (nu K)^{-1} B` to `M_p / nu`
+//! is not bounded by 1 as in the continuous case (the elementwise bound is
+//! `|div v|^2 <= 3 |grad v|^2`), and with the full factor the cavity iteration diverged
+//! after ~35 steps of dt = 1 (measured); with 1/2 the correction factor
+//! `1 - lambda/2` stays in (-1, 1) for `lambda < 4`.
+//!
+//! # Boundary conditions and markers
+//! Faces on [`BoundaryKind::Dirichlet`](crate::BoundaryKind) sides and faces of marked
+//! cells (the mask given to [`NavierStokes::new`]) keep the velocities stored in
+//! [`NavierStokes::u`] (no-slip walls, moving lids, inflow profiles, see
+//! [`NavierStokes::set_side_velocity`], or a particle's rigid motion set by the coupling);
+//! do-nothing sides get the natural condition with boundary pressure 0; periodic pairs are
+//! part of the [`Grid`]. The pressure Schur complement does not know the markers: in cells
+//! next to marked faces the discrete divergence is not driven to zero (the fictitious
+//! boundary overwrites the projected velocity there).
+
+use crate::grid::Grid;
+use crate::mg_cell::{MgReport, PressureMg};
+use crate::mg_face::FaceMg;
+use crate::ops::{add_gradient, divergence, lumped_mass, FaceOperator};
+use std::time::Instant;
+
+/// Time discretisation of [`NavierStokes::step`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TimeScheme {
+    /// Implicit Euler, first order (start-up, steady states).
+    BackwardEuler,
+    /// Crank-Nicolson, second order.
+    CrankNicolson,
+    /// Glowinski's fractional-step theta scheme, second order, three substeps.
+    FractionalStepTheta,
+}
+
+impl TimeScheme {
+    /// Substeps `(k_s, w_i, w_e)` of one step of length `k` (see the module docs).
+    fn substeps(self, k: f64) -> Vec<(f64, f64, f64)> {
+        match self {
+            TimeScheme::BackwardEuler => vec![(k, k, 0.0)],
+            TimeScheme::CrankNicolson => vec![(k, 0.5 * k, 0.5 * k)],
+            TimeScheme::FractionalStepTheta => {
+                let theta = 1.0 - std::f64::consts::FRAC_1_SQRT_2;
+                let theta2 = 1.0 - 2.0 * theta;
+                let a = (1.0 - 2.0 * theta) / (1.0 - theta);
+                let b = 1.0 - a;
+                let outer = (theta * k, a * theta * k, b * theta * k);
+                vec![outer, (theta2 * k, b * theta2 * k, a * theta2 * k), outer]
+            }
+        }
+    }
+}
+
+/// Parameters of a transient flow computation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NsConfig {
+    /// Kinematic viscosity (> 0).
+    pub nu: f64,
+    /// Time step.
+    pub dt: f64,
+    /// Time discretisation.
+    pub scheme: TimeScheme,
+    /// Number of initial steps done by backward Euler (damps the start-up of impulsively
+    /// started flows).
+    pub startup_steps: usize,
+    /// Relative residual reduction of each momentum solve.
+    pub momentum_rtol: f64,
+    /// Relative residual reduction of each pressure solve.
+    pub pressure_rtol: f64,
+    /// Maximum multigrid cycles per solve.
+    pub max_cycles: usize,
+}
+
+impl NsConfig {
+    /// Defaults: fractional-step theta, one backward-Euler start-up step, tolerances
+    /// 1e-8 (momentum) and 1e-8 (pressure), at most 50 cycles.
+    pub fn new(nu: f64, dt: f64) -> Self {
+        NsConfig {
+            nu,
+            dt,
+            scheme: TimeScheme::FractionalStepTheta,
+            startup_steps: 1,
+            momentum_rtol: 1e-8,
+            pressure_rtol: 1e-8,
+            max_cycles: 50,
+        }
+    }
+}
+
+/// Report of one time step (all substeps).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StepReport {
+    /// Momentum multigrid cycles (all components and substeps).
+    pub momentum_cycles: usize,
+    /// Mean residual reduction per momentum cycle (geometric mean over all cycles).
+    pub momentum_reduction: f64,
+    /// Pressure multigrid cycles (all substeps).
+    pub pressure_cycles: usize,
+    /// Mean residual reduction per pressure cycle.
+    pub pressure_reduction: f64,
+    /// Wall seconds of the momentum solves.
+    pub momentum_seconds: f64,
+    /// Wall seconds of the pressure solves.
+    pub pressure_seconds: f64,
+    /// `max_T |(B^T u)_T| / |T|` after the step (the cell-mean divergence).
+    pub max_divergence: f64,
+    /// Wall time of the step, seconds.
+    pub seconds: f64,
+}
+
+/// Running sums of cycles and log-reductions of several solves.
+#[derive(Default)]
+struct Tally {
+    cycles: usize,
+    log: f64,
+    seconds: f64,
+}
+
+impl Tally {
+    fn add(&mut self, r: &MgReport) {
+        self.cycles += r.cycles;
+        self.seconds += r.seconds;
+        if r.cycles > 0 && r.initial_residual > 0.0 && r.final_residual > 0.0 {
+            self.log += (r.final_residual / r.initial_residual).ln();
+        }
+    }
+
+    fn mean(&self) -> f64 {
+        if self.cycles > 0 {
+            (self.log / self.cycles as f64).exp()
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Transient incompressible Navier-Stokes solver on one grid level.
+pub struct NavierStokes {
+    grid: Grid,
+    cfg: NsConfig,
+    mask: Vec<bool>,
+    /// Lumped mass per face.
+    ml: Vec<f64>,
+    mg: FaceMg,
+    pmg: PressureMg,
+    /// Velocity face values, one vector per component; masked faces hold the prescribed
+    /// values.
+    pub u: [Vec<f64>; 3],
+    /// Pressure per cell.
+    pub p: Vec<f64>,
+    /// Velocity before the last substep and that substep's length (for `u*`).
+    prev: Option<([Vec<f64>; 3], f64)>,
+    /// Time reached.
+    pub time: f64,
+    /// Steps done.
+    pub steps: usize,
+}
+
+impl NavierStokes {
+    /// Solver on `grid`, starting from rest at `t = 0`; `mask` flags the faces with
+    /// prescribed velocity (at least [`Grid::dirichlet_mask`], plus marked cells via
+    /// [`Grid::mark_faces`]).
+    pub fn new(grid: &Grid, cfg: NsConfig, mask: Vec<bool>) -> Self {
+        assert!(cfg.nu > 0.0, "nu: the viscosity must be positive");
+        assert!(cfg.dt > 0.0, "dt: the time step must be positive");
+        let nf = grid.num_faces();
+        NavierStokes {
+            grid: grid.clone(),
+            mg: FaceMg::new(grid, 1.0, cfg.nu, mask.clone()),
+            pmg: PressureMg::new(grid),
+            cfg,
+            mask,
+            ml: lumped_mass(grid),
+            u: [0, 1, 2].map(|_| vec![0.0; nf]),
+            p: vec![0.0; grid.num_cells()],
+            prev: None,
+            time: 0.0,
+            steps: 0,
+        }
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The faces with prescribed velocity.
+    pub fn mask(&self) -> &[bool] {
+        &self.mask
+    }
+
+    /// Replaces the mask of prescribed faces (e.g. after particles moved); rebuilds the
+    /// momentum multigrid.
+    pub fn set_mask(&mut self, mask: Vec<bool>) {
+        self.mg = FaceMg::new(&self.grid, 1.0, self.cfg.nu, mask.clone());
+        self.mask = mask;
+    }
+
+    /// Sets the velocity of all faces on side `side` (0 lower, 1 upper) of direction `d`
+    /// to `profile(face centre)` (Dirichlet data: wall, lid, inflow profile).
+    pub fn set_side_velocity(
+        &mut self,
+        d: usize,
+        side: usize,
+        profile: impl Fn([f64; 3]) -> [f64; 3],
+    ) {
+        let lay = self.grid.layout();
+        let m = if side == 0 { 0 } else { lay.n[d] };
+        let mut faces = Vec::new();
+        lay.for_each_face_at(d, m, |i| faces.push(i));
+        for i in faces {
+            let x = self.grid.face_centre(d, lay.face_coords(d, i - lay.off[d]));
+            for (uc, vc) in self.u.iter_mut().zip(profile(x)) {
+                uc[i] = vc;
+            }
+        }
+    }
+
+    /// One time step of length `dt` with the configured scheme (backward Euler during the
+    /// first `startup_steps` steps).
+    pub fn step(&mut self) -> StepReport {
+        let start = Instant::now();
+        let (scheme, second_order) = if self.steps < self.cfg.startup_steps {
+            (TimeScheme::BackwardEuler, false)
+        } else {
+            (
+                self.cfg.scheme,
+                self.cfg.scheme != TimeScheme::BackwardEuler,
+            )
+        };
+        let mut mom = Tally::default();
+        let mut pre = Tally::default();
+        for (ks, wi, we) in scheme.substeps(self.cfg.dt) {
+            self.substep(ks, wi, we, second_order, &mut mom, &mut pre);
+        }
+        self.time += self.cfg.dt;
+        self.steps += 1;
+        StepReport {
+            momentum_cycles: mom.cycles,
+            momentum_reduction: mom.mean(),
+            pressure_cycles: pre.cycles,
+            pressure_reduction: pre.mean(),
+            momentum_seconds: mom.seconds,
+            pressure_seconds: pre.seconds,
+            max_divergence: self.max_divergence(),
+            seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// `max_T |(B^T u)_T| / |T|` of the current velocity.
+    pub fn max_divergence(&self) -> f64 {
+        let mut div = vec![0.0; self.grid.num_cells()];
+        divergence(&self.grid, [&self.u[0], &self.u[1], &self.u[2]], &mut div);
+        div.iter().fold(0.0f64, |m, d| m.max(d.abs())) / self.grid.cell_volume()
+    }
+
+    fn substep(
+        &mut self,
+        ks: f64,
+        wi: f64,
+        we: f64,
+        extrapolate: bool,
+        mom: &mut Tally,
+        pre: &mut Tally,
+    ) {
+        let g = self.grid.clone();
+        let nf = g.num_faces();
+        let nu = self.cfg.nu;
+        // right-hand side [M_l - w_e A(u_old)] u_old - k_s B p_old, scaled by 1/w_i
+        let mut rhs: [Vec<f64>; 3] =
+            [0, 1, 2].map(|c| self.u[c].iter().zip(&self.ml).map(|(u, m)| m * u).collect());
+        if we > 0.0 {
+            let explicit = FaceOperator::lumped(&g, 0.0, nu)
+                .with_convection(&g, [&self.u[0], &self.u[1], &self.u[2]]);
+            let mut au = vec![0.0; nf];
+            for (uc, rc) in self.u.iter().zip(rhs.iter_mut()) {
+                explicit.apply(uc, &mut au);
+                rc.iter_mut().zip(&au).for_each(|(r, a)| *r -= we * a);
+            }
+        }
+        {
+            let [r0, r1, r2] = &mut rhs;
+            add_gradient(&g, &self.p, -ks, [r0, r1, r2]);
+        }
+        rhs.iter_mut()
+            .for_each(|r| r.iter_mut().for_each(|v| *v /= wi));
+        // the convecting velocity u*
+        let ustar: [Vec<f64>; 3] = match (&self.prev, extrapolate) {
+            (Some((up, kp)), true) => {
+                let s = ks / kp;
+                [0, 1, 2].map(|c| {
+                    self.u[c]
+                        .iter()
+                        .zip(&up[c])
+                        .map(|(u, v)| u + s * (u - v))
+                        .collect()
+                })
+            }
+            _ => self.u.clone(),
+        };
+        self.mg.set_operator(1.0 / wi, nu, true);
+        self.mg.set_convection([&ustar[0], &ustar[1], &ustar[2]]);
+        let old = self.u.clone();
+        for (uc, rc) in self.u.iter_mut().zip(&rhs) {
+            let rep = self
+                .mg
+                .solve(uc, rc, self.cfg.momentum_rtol, self.cfg.max_cycles);
+            mom.add(&rep);
+        }
+        // projection: P q = B^T u~ / k_s = -D u~ / k_s
+        let mut b = vec![0.0; g.num_cells()];
+        divergence(&g, [&self.u[0], &self.u[1], &self.u[2]], &mut b);
+        b.iter_mut().for_each(|v| *v = -*v / ks);
+        let mut q = vec![0.0; g.num_cells()];
+        let rep = self
+            .pmg
+            .solve(&mut q, &b, self.cfg.pressure_rtol, self.cfg.max_cycles);
+        pre.add(&rep);
+        let mut bq = [0, 1, 2].map(|_| vec![0.0; nf]);
+        {
+            let [b0, b1, b2] = &mut bq;
+            add_gradient(&g, &q, 1.0, [b0, b1, b2]);
+        }
+        for (uc, bc) in self.u.iter_mut().zip(&bq) {
+            for (((u, b), m), &fixed) in uc.iter_mut().zip(bc).zip(&self.ml).zip(&self.mask) {
+                if !fixed {
+                    *u -= ks * b / m;
+                }
+            }
+        }
+        // b = B^T u~ / k_s: p += q + 1/2 w_i nu b / |T|
+        let visc = 0.5 * wi * self.cfg.nu / g.cell_volume();
+        self.p
+            .iter_mut()
+            .zip(&q)
+            .zip(&b)
+            .for_each(|((p, q), b)| *p += q + visc * b);
+        self.prev = Some((old, ks));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::BoundaryKind::*;
+    use std::f64::consts::PI;
+
+    /// Ghia, Ghia & Shin 1982 (J. Comput. Phys. 48:387), Re = 100, as transcribed in
+    /// ../shared/reference/fluid-benchmarks.md: `(y, u(0.5, y))` and `(x, v(x, 0.5))`.
+    const GHIA_U_100: [(f64, f64); 15] = [
+        (0.9766, 0.84123),
+        (0.9688, 0.78871),
+        (0.9609, 0.73722),
+        (0.9531, 0.68717),
+        (0.8516, 0.23151),
+        (0.7344, 0.00332),
+        (0.6172, -0.13641),
+        (0.5000, -0.20581),
+        (0.4531, -0.21090),
+        (0.2813, -0.15662),
+        (0.1719, -0.10150),
+        (0.1016, -0.06434),
+        (0.0703, -0.04775),
+        (0.0625, -0.04192),
+        (0.0547, -0.03717),
+    ];
+    const GHIA_V_100: [(f64, f64); 15] = [
+        (0.9688, -0.05906),
+        (0.9609, -0.07391),
+        (0.9531, -0.08864),
+        (0.9453, -0.10313),
+        (0.9063, -0.16914),
+        (0.8594, -0.22445),
+        (0.8047, -0.24533),
+        (0.5000, 0.05454),
+        (0.2344, 0.17527),
+        (0.2266, 0.17507),
+        (0.1563, 0.16077),
+        (0.0938, 0.12317),
+        (0.0781, 0.10890),
+        (0.0703, 0.10091),
+        (0.0625, 0.09233),
+    ];
+
+    /// Re = 400 columns of the same tables (the misprinted v at x = 0.9063 skipped).
+    const GHIA_U_400: [f64; 15] = [
+        0.75837, 0.68439, 0.61756, 0.55892, 0.29093, 0.16256, 0.02135, -0.11477, -0.17119,
+        -0.32726, -0.24299, -0.14612, -0.10338, -0.09266, -0.08186,
+    ];
+    const GHIA_V_400: [f64; 15] = [
+        -0.12146,
+        -0.15663,
+        -0.19254,
+        -0.22847,
+        f64::NAN,
+        -0.44993,
+        -0.38598,
+        0.05186,
+        0.30174,
+        0.30203,
+        0.28124,
+        0.22965,
+        0.20920,
+        0.19713,
+        0.18360,
+    ];
+
+    /// Component `comp` along the centreline through the `comp`-faces at coordinate 0.5
+    /// (`comp` 0: u on x = 0.5 as a function of y; 1: v on y = 0.5 as a function of x),
+    /// averaged over z and interpolated linearly between face centres, with the wall
+    /// values (0, and the lid value 1 for u at y = 1) at the ends.
+    fn centreline(ns: &NavierStokes, comp: usize, s: f64) -> f64 {
+        let g = ns.grid();
+        let lay = g.layout();
+        let n = lay.n;
+        let t = 1 - comp; // the coordinate varied along the line
+        let h = g.h()[t];
+        let value = |m: isize| -> f64 {
+            if m < 0 {
+                return 0.0;
+            }
+            if m as usize >= n[t] {
+                return if comp == 0 { 1.0 } else { 0.0 };
+            }
+            let mut sum = 0.0;
+            for k in 0..n[2] {
+                let mut f = [0, 0, k];
+                f[comp] = n[comp] / 2;
+                f[t] = m as usize;
+                sum += ns.u[comp][lay.face(comp, f)];
+            }
+            sum / n[2] as f64
+        };
+        // face centres at (m + 1/2) h; the walls at "m = -1/2" and "m = n - 1/2"
+        let m0 = (s / h - 0.5).floor();
+        let at = |m: isize| -> (f64, f64) {
+            // (position, value), clamping the virtual points onto the walls
+            if m < 0 {
+                (0.0, value(-1))
+            } else if m as usize >= n[t] {
+                (1.0, value(n[t] as isize))
+            } else {
+                ((m as f64 + 0.5) * h, value(m))
+            }
+        };
+        let (x0, v0) = at(m0 as isize);
+        let (x1, v1) = at(m0 as isize + 1);
+        if (x1 - x0).abs() < 1e-15 {
+            v0
+        } else {
+            v0 + (v1 - v0) * (s - x0) / (x1 - x0)
+        }
+    }
+
+    /// The cavity of Ghia et al.: unit square in x-y, lid u = (1, 0, 0) at y = 1, no-slip
+    /// elsewhere, periodic in z (2 coarse cells), `n x n x n/8` cubic cells (coarse
+    /// `n/2 x n/2 x 2` on level 2), viscosity `1/re`; backward Euler steps of `dt` until
+    /// the largest change of u in a step falls below 1e-6 (at most 150 steps). Returns the
+    /// solver, the steps, the wall seconds and the largest divergence after a step.
+    fn cavity(n: usize, re: f64, dt: f64) -> (NavierStokes, usize, f64, f64) {
+        let bc = [[Dirichlet; 2], [Dirichlet; 2], [Periodic; 2]];
+        let g = Grid::new(
+            [0.0; 3],
+            [1.0, 1.0, 8.0 / n as f64],
+            [n / 2, n / 2, 2],
+            2,
+            bc,
+        )
+        .unwrap();
+        let mut cfg = NsConfig::new(1.0 / re, dt);
+        cfg.scheme = TimeScheme::BackwardEuler;
+        cfg.momentum_rtol = 1e-6;
+        cfg.pressure_rtol = 1e-6;
+        let mut ns = NavierStokes::new(&g, cfg, g.dirichlet_mask());
+        ns.set_side_velocity(1, 1, |_| [1.0, 0.0, 0.0]);
+        let mut secs = 0.0;
+        let mut div = 0.0f64;
+        for step in 1..=150 {
+            let old = ns.u[0].clone();
+            let rep = ns.step();
+            secs += rep.seconds;
+            div = div.max(rep.max_divergence);
+            let change = ns.u[0]
+                .iter()
+                .zip(&old)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            if step % 10 == 0 {
+                println!("cavity n {n} Re {re} step {step}: max du {change:.2e}, {rep:?}");
+            }
+            if change < 1e-6 {
+                return (ns, step, secs, div);
+            }
+        }
+        (ns, 150, secs, div)
+    }
+
+    fn ghia_deviation(ns: &NavierStokes, u_ref: &[f64], v_ref: &[f64]) -> (f64, f64) {
+        let mut du = 0.0f64;
+        for (k, &(y, _)) in GHIA_U_100.iter().enumerate() {
+            du = du.max((centreline(ns, 0, y) - u_ref[k]).abs());
+        }
+        let mut dv = 0.0f64;
+        for (k, &(x, _)) in GHIA_V_100.iter().enumerate() {
+            if v_ref[k].is_finite() {
+                dv = dv.max((centreline(ns, 1, x) - v_ref[k]).abs());
+            }
+        }
+        (du, dv)
+    }
+
+    /// Lid-driven cavity at Re = 100 against Ghia et al. (1982) on 24 x 24 (x 4 periodic
+    /// in z) cells, steady state by backward Euler steps of dt = 1 (the implicit
+    /// linearised convection makes this a Picard iteration; ~11 s). Tolerance 0.045 on
+    /// both centreline profiles: Ghia's values carry ~0.01 (reference file) and the
+    /// discretisation error is measured at u 0.061 / v 0.021 on 16 x 16, u 0.040 / v 0.015
+    /// on 24 x 24 and u 0.027 / v 0.015 on 32 x 32 ([`cavity_re100_fine`]), largest next to
+    /// the lid: it falls with h. The Re = 1 flow misses the table by 0.0625
+    /// ([`cavity_negative_control`]), so the tolerance separates the two.
+    /// The discrete divergence after every step stays at the solver tolerance
+    /// (`max |div| < 1e-5` per cell volume with pressure rtol 1e-6, lid speed 1).
+    #[test]
+    fn cavity_re100_matches_ghia() {
+        let (u_ref, v_ref) = (GHIA_U_100.map(|(_, u)| u), GHIA_V_100.map(|(_, v)| v));
+        check_cavity(24, 100.0, &u_ref, &v_ref, TOL24);
+    }
+
+    /// Negative control of [`cavity_re100_matches_ghia`] (about 17 s): the same cavity
+    /// at Re = 1 (almost Stokes flow) misses the Re = 100 table by more than the
+    /// tolerance (measured 0.0625 in u and v).
+    #[test]
+    #[ignore]
+    fn cavity_negative_control() {
+        let (u_ref, v_ref) = (GHIA_U_100.map(|(_, u)| u), GHIA_V_100.map(|(_, v)| v));
+        let (stokes, _, _, _) = cavity(24, 1.0, 1.0);
+        let (du, dv) = ghia_deviation(&stokes, &u_ref, &v_ref);
+        println!("negative control Re 1 vs Ghia Re 100: u {du:.4}, v {dv:.4}");
+        assert!(du.max(dv) > TOL24);
+    }
+
+    /// The same on 32 x 32 cells (about 30 s): tolerance 0.03 (measured 0.027 u, 0.015 v).
+    #[test]
+    #[ignore]
+    fn cavity_re100_fine() {
+        check_cavity(
+            32,
+            100.0,
+            &GHIA_U_100.map(|(_, u)| u),
+            &GHIA_V_100.map(|(_, v)| v),
+            0.03,
+        );
+    }
+
+    /// Re = 400 on 32 x 32 cells against Ghia's Re = 400 columns (slow; tolerance 0.06,
+    /// the thinner boundary layers are resolved by fewer cells). KNOWN FAILURE: measured
+    /// after 150 backward-Euler steps of dt = 1 (40 s): no steady state yet (largest
+    /// change 1.4e-4 per step), deviation u 0.112, v 0.017; needs a finer grid and/or a
+    /// faster steady-state iteration.
+    #[test]
+    #[ignore]
+    fn cavity_re400() {
+        check_cavity(32, 400.0, &GHIA_U_400, &GHIA_V_400, 0.06);
+    }
+
+    /// Tolerance of the 24 x 24 cavity (see [`cavity_re100_matches_ghia`]).
+    const TOL24: f64 = 0.045;
+
+    fn check_cavity(n: usize, re: f64, u_ref: &[f64], v_ref: &[f64], tol: f64) {
+        let (ns, steps, secs, div) = cavity(n, re, 1.0);
+        let (du, dv) = ghia_deviation(&ns, u_ref, v_ref);
+        println!(
+            "cavity Re {re}, {n}x{n}: {steps} steps, {secs:.2} s; max deviation from Ghia: u {du:.4}, v {dv:.4}; max divergence {div:.2e}"
+        );
+        for (k, &(y, _)) in GHIA_U_100.iter().enumerate() {
+            println!(
+                "  y {y:.4}: u {:.5} (Ghia {:.5})",
+                centreline(&ns, 0, y),
+                u_ref[k]
+            );
+        }
+        assert!(steps < 150, "no steady state");
+        assert!(div < 1e-5, "divergence {div}");
+        assert!(du < tol && dv < tol, "u {du}, v {dv}");
+    }
+
+    /// Face-mean interpolant of the 2D Taylor-Green vortex (Taylor & Green 1937)
+    /// `u = sin x cos y F, v = -cos x sin y F, w = 0`, `F = exp(-2 nu t)`, an exact
+    /// Navier-Stokes solution (the convection is the gradient of
+    /// `-(cos 2x + cos 2y) F^2 / 4`, balanced by the pressure): the mean of
+    /// `sin`/`cos` over a face of width `h` along a tangential direction is the centre
+    /// value times `sin(h/2) / (h/2)`.
+    fn taylor_green(g: &Grid, t: f64, nu: f64) -> [Vec<f64>; 3] {
+        let lay = g.layout();
+        let h = g.h();
+        let f = (-2.0 * nu * t).exp();
+        let damp = |d: usize| (0.5 * h[d]).sin() / (0.5 * h[d]);
+        let mut u = [0, 1, 2].map(|_| vec![0.0; lay.num_faces()]);
+        for a in 0..3 {
+            let sx = if a == 0 { 1.0 } else { damp(0) };
+            let sy = if a == 1 { 1.0 } else { damp(1) };
+            for idx in 0..lay.off[a + 1] - lay.off[a] {
+                let x = g.face_centre(a, lay.face_coords(a, idx));
+                let i = lay.off[a] + idx;
+                u[0][i] = f * sx * x[0].sin() * sy * x[1].cos();
+                u[1][i] = -f * sx * x[0].cos() * sy * x[1].sin();
+            }
+        }
+        u
+    }
+
+    /// Runs the Taylor-Green vortex on the periodic box `[0,2pi]^2 x [0,pi]` (8 x 8 x 4
+    /// cubic cells) to `t = 1` with `nu = 0.5` and `steps` steps; returns the velocity,
+    /// and the largest divergence after a step.
+    fn run_taylor_green(scheme: TimeScheme, steps: usize) -> ([Vec<f64>; 3], f64, Grid) {
+        let g = Grid::new(
+            [0.0; 3],
+            [2.0 * PI, 2.0 * PI, PI],
+            [4, 4, 2],
+            2,
+            [[Periodic; 2]; 3],
+        )
+        .unwrap();
+        let nu = 0.5;
+        let mut cfg = NsConfig::new(nu, 1.0 / steps as f64);
+        cfg.scheme = scheme;
+        cfg.startup_steps = 0;
+        cfg.momentum_rtol = 1e-11;
+        cfg.pressure_rtol = 1e-11;
+        let mut ns = NavierStokes::new(&g, cfg, g.dirichlet_mask());
+        ns.u = taylor_green(&g, 0.0, nu);
+        let mut div = 0.0f64;
+        for _ in 0..steps {
+            div = div.max(ns.step().max_divergence);
+        }
+        (ns.u, div, g)
+    }
+
+    /// Mass-weighted L2 norm of the difference of two velocities.
+    fn l2_diff(g: &Grid, a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]) -> f64 {
+        let ml = lumped_mass(g);
+        let mut s = 0.0;
+        for c in 0..3 {
+            for i in 0..ml.len() {
+                s += ml[i] * (a[c][i] - b[c][i]).powi(2);
+            }
+        }
+        s.sqrt()
+    }
+
+    /// Order in time on the Taylor-Green vortex (nu = 0.5, t = 1, dt = 1/10 ... 1/80):
+    /// the differences of successive halvings `|u_dt - u_dt/2|` (same grid, so the
+    /// spatial error cancels) fall by 2^p with observed p in [0.8, 1.3] for backward
+    /// Euler and p >= 1.8 for Crank-Nicolson and fractional-step theta (the
+    /// schemes' orders 1 and 2). The divergence after every step is below 1e-9 (pressure
+    /// tolerance 1e-11 relative, velocities ~1).
+    #[test]
+    fn taylor_green_time_orders() {
+        for (scheme, lo, hi) in [
+            (TimeScheme::BackwardEuler, 0.8, 1.3),
+            (TimeScheme::CrankNicolson, 1.8, 2.5),
+            (TimeScheme::FractionalStepTheta, 1.8, 2.5),
+        ] {
+            let runs: Vec<_> = [10, 20, 40, 80]
+                .iter()
+                .map(|&n| run_taylor_green(scheme, n))
+                .collect();
+            let g = &runs[0].2;
+            let exact = taylor_green(g, 1.0, 0.5);
+            let diffs: Vec<f64> = runs
+                .windows(2)
+                .map(|w| l2_diff(g, &w[0].0, &w[1].0))
+                .collect();
+            let div = runs.iter().fold(0.0f64, |m, r| m.max(r.1));
+            let err = l2_diff(g, &runs[3].0, &exact);
+            println!(
+                "{scheme:?}: successive differences {:.3e} {:.3e} {:.3e}, error vs exact at dt 1/80 {err:.3e}, max divergence {div:.1e}",
+                diffs[0], diffs[1], diffs[2]
+            );
+            for w in diffs.windows(2) {
+                let p = (w[0] / w[1]).log2();
+                println!("  observed order {p:.3}");
+                assert!(p >= lo && p <= hi, "{scheme:?}: order {p}");
+            }
+            assert!(div < 1e-9, "divergence {div}");
+        }
+    }
+
+    /// Fictitious-boundary hook: a 2x2x2 block of marked cells moving with
+    /// u = (1, 0, 0) in a closed box keeps its prescribed face velocities exactly through
+    /// fractional-step theta steps, and drags the fluid next to it (0 < u_x < 1).
+    #[test]
+    fn marked_faces_keep_prescribed_velocity() {
+        let g = Grid::new([0.0; 3], [1.0; 3], [2, 2, 2], 3, [[Dirichlet; 2]; 3]).unwrap();
+        let lay = g.layout();
+        let mut markers = vec![0; g.num_cells()];
+        for k in 3..5 {
+            for j in 3..5 {
+                for i in 3..5 {
+                    markers[lay.cell([i, j, k])] = -1;
+                }
+            }
+        }
+        let mut body = vec![false; g.num_faces()];
+        g.mark_faces(&markers, &mut body);
+        let mut mask = g.dirichlet_mask();
+        g.mark_faces(&markers, &mut mask);
+        let mut ns = NavierStokes::new(&g, NsConfig::new(0.1, 0.05), mask);
+        for (i, &b) in body.iter().enumerate() {
+            if b {
+                ns.u[0][i] = 1.0;
+            }
+        }
+        for _ in 0..3 {
+            let rep = ns.step();
+            println!("marked block: {rep:?}");
+        }
+        for (i, &b) in body.iter().enumerate() {
+            if b {
+                assert_eq!((ns.u[0][i], ns.u[1][i], ns.u[2][i]), (1.0, 0.0, 0.0));
+            }
+        }
+        for fx in [[2, 3, 3], [6, 4, 4]] {
+            let v = ns.u[0][lay.face(0, fx)];
+            assert!(v > 0.0 && v < 1.0, "u_x at {fx:?} = {v}");
+        }
+    }
+
+    /// Wall time per fractional-step theta step on the seed's sedimentation channel
+    /// (box 2 x 2 x 10, 5 x 5 x 25 coarse cells, nu = 0.01, parabolic inflow of peak 1 at
+    /// z = 0, do-nothing outflow at z = 10, dt = 0.01), levels 2 and 3; prints the
+    /// multigrid cycles, rates and ns per unknown per cycle (run with `--ignored`).
+    #[test]
+    #[ignore]
+    fn channel_step_timings() {
+        let bc = [[Dirichlet; 2], [Dirichlet; 2], [Dirichlet, DoNothing]];
+        for level in 2..=3 {
+            let g = Grid::new([0.0; 3], [2.0, 2.0, 10.0], [5, 5, 25], level, bc).unwrap();
+            let mut ns = NavierStokes::new(&g, NsConfig::new(0.01, 0.01), g.dirichlet_mask());
+            ns.set_side_velocity(2, 0, |x| {
+                [0.0, 0.0, x[0] * (2.0 - x[0]) * x[1] * (2.0 - x[1])]
+            });
+            for _ in 0..4 {
+                let r = ns.step();
+                let nf = g.num_faces() as f64;
+                let nc = g.num_cells() as f64;
+                println!(
+                    "channel level {level} ({} DOFs): step {:.3} s; momentum {} cycles rho {:.2e} ({:.0} ns/unknown/cycle), pressure {} cycles rho {:.3} ({:.0} ns/unknown/cycle), div {:.1e}",
+                    g.dofs(),
+                    r.seconds,
+                    r.momentum_cycles,
+                    r.momentum_reduction,
+                    r.momentum_seconds / (r.momentum_cycles as f64 * nf) * 1e9,
+                    r.pressure_cycles,
+                    r.pressure_reduction,
+                    r.pressure_seconds / (r.pressure_cycles as f64 * nc) * 1e9,
+                    r.max_divergence
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,142 @@
+//! The fluid part of a scene: its grid (`grainflow-fluid`), and the figures
+//! `grainflow check` prints about it (degrees of freedom per level, time-step numbers).
+use std::fmt::Write as _;
+use std::path::Path;
+
+use grainflow_fluid::{Boundaries, BoundaryKind, Grid, GridError};
+
+use crate::scene::{Fluid, FluidBoundary, InflowProfile, SceneError};
+
+/// Coarse cells of the fluid box: `cells`, or the box divided by `cell_size`.
+pub fn coarse_cells(f: &Fluid) -> [usize; 3] {
+    match (f.cells, f.cell_size, f.min, f.max) {
+        (Some(cells), _, _, _) => cells,
+        (None, Some(h), Some(min), Some(max)) => {
+            [0, 1, 2].map(|d| ((max[d] - min[d]) / h).round() as usize)
+        }
+        _ => unreachable!("validated fluid grid"),
+    }
+}
+
+/// Boundary kinds of the six sides.
+pub fn boundary_kinds(f: &Fluid) -> Boundaries {
+    f.boundaries.sides().map(|side| {
+        side.map(|(_, b)| match b {
+            FluidBoundary::Wall { .. } | FluidBoundary::Inflow { .. } => BoundaryKind::Dirichlet,
+            FluidBoundary::Outflow => BoundaryKind::DoNothing,
+            FluidBoundary::Periodic => BoundaryKind::Periodic,
+        })
+    })
+}
+
+/// The grid of the scene's fluid at its level; `None` without a fluid grid.
+pub fn fluid_grid(f: &Fluid, path: &Path) -> Result<Option<Grid>, SceneError> {
+    if !f.has_grid() {
+        return Ok(None);
+    }
+    let (min, max) = (f.min.expect("validated"), f.max.expect("validated"));
+    Grid::new(min, max, coarse_cells(f), f.level, boundary_kinds(f))
+        .map(Some)
+        .map_err(|e| SceneError {
+            file: path.to_path_buf(),
+            field: match e {
+                GridError::EmptyBox { .. } => "fluid.max",
+                GridError::NoCells { .. } | GridError::PeriodicTooFewCells { .. } => "fluid.cells",
+                GridError::LevelZero => "fluid.level",
+                GridError::HalfPeriodic { .. } => "fluid.boundaries",
+            }
+            .into(),
+            message: e.to_string(),
+        })
+}
+
+/// Largest speed prescribed on the boundary (walls, lids, inflow peaks).
+pub fn boundary_speed(f: &Fluid) -> f64 {
+    f.boundaries
+        .sides()
+        .iter()
+        .flatten()
+        .map(|(_, b)| match b {
+            FluidBoundary::Wall { velocity } | FluidBoundary::Inflow { velocity, .. } => {
+                velocity.iter().map(|v| v * v).sum::<f64>().sqrt()
+            }
+            _ => 0.0,
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The `grainflow check` block of a fluid grid: box, viscosity, boundaries, the degrees of
+/// freedom of levels 1 to max(5, level) (3 x faces + cells; a periodic pair of sides
+/// shares its faces), and the time-step numbers
+/// of the run's level: the CFL number U dt / h with the largest boundary speed U, and the
+/// viscous number nu dt / h^2 (the viscous term is implicit, so it is reported, not
+/// limited).
+pub fn check_report(f: &Fluid, grid: &Grid) -> String {
+    let mut out = String::new();
+    let coarse = grid.coarse;
+    let _ = writeln!(
+        out,
+        "fluid      box {:?} .. {:?}, nu = {:e}, rho_f = {}, coarse cells {coarse:?}, level {}",
+        grid.lower,
+        grid.upper,
+        f.viscosity.unwrap_or_default(),
+        f.density,
+        grid.level
+    );
+    let _ = writeln!(
+        out,
+        "  scheme {:?}, dt_F = {:e} s",
+        f.scheme,
+        f.dt.unwrap_or_default()
+    );
+    for side in f.boundaries.sides().iter().flatten() {
+        let what = match side.1 {
+            FluidBoundary::Wall { velocity } if velocity.iter().all(|v| *v == 0.0) => {
+                "no-slip wall".to_string()
+            }
+            FluidBoundary::Wall { velocity } => format!("moving wall, velocity {velocity:?}"),
+            FluidBoundary::Inflow { velocity, profile } => format!(
+                "inflow, {} {velocity:?}",
+                match profile {
+                    InflowProfile::Uniform => "uniform",
+                    InflowProfile::Parabolic => "parabolic, peak",
+                }
+            ),
+            FluidBoundary::Outflow => "do-nothing outflow".to_string(),
+            FluidBoundary::Periodic => "periodic".to_string(),
+        };
+        let _ = writeln!(out, "  {:4} {what}", side.0);
+    }
+    let _ = writeln!(out, "  level  cells                faces       DOFs");
+    for level in 1..=grid.level.max(5) {
+        let scale = 1usize << (level - 1);
+        let n = coarse.map(|c| c * scale);
+        let cells = n[0] * n[1] * n[2];
+        let dofs = Grid {
+            level,
+            ..grid.clone()
+        }
+        .dofs();
+        let faces = (dofs - cells) / 3;
+        let _ = writeln!(
+            out,
+            "  {level:5}  {:<20} {faces:>10} {dofs:>10}{}",
+            format!("{}x{}x{} = {cells}", n[0], n[1], n[2]),
+            if level == grid.level {
+                "  <- this run"
+            } else {
+                ""
+            }
+        );
+    }
+    let h = grid.h().into_iter().fold(f64::INFINITY, f64::min);
+    let dt = f.dt.unwrap_or_default();
+    let _ = writeln!(
+        out,
+        "  time step: CFL U dt/h = {:.3} (U = {:.3e}, h = {h:.3e}), viscous nu dt/h^2 = {:.3}",
+        boundary_speed(f) * dt / h,
+        boundary_speed(f),
+        f.viscosity.unwrap_or_default() * dt / (h * h)
+    );
+    out
+}

@@ -1,0 +1,118 @@
+//! The fluid part of scene files (`[fluid]`, docs/scene-format.md) through the command
+//! line: `grainflow check` on the seed's sedimentation box lists the degrees of freedom of
+//! levels 1 to 5 exactly as the seed's "MG-Level" table (5 x 5 x 25 coarse cells: 7,075 /
+//! 53,300 / 413,200 / 3,252,800 / 25,811,200; 3 x faces + cells of the Q1~/Q0 pair), and
+//! bad fluid input exits 2 naming the field.
+mod common;
+
+use std::path::Path;
+
+use common::*;
+
+fn channel() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/channel-10x2x2.toml"))
+        .expect("channel case")
+}
+
+#[test]
+fn check_lists_the_seeds_dof_table() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scene = write_scene(dir.path(), "channel.toml", &channel());
+    let (code, stdout, stderr) = run_cli(&["check", scene.to_str().unwrap()]);
+    assert_eq!(code, 0, "stdout:\n{stdout}\nstderr:\n{stderr}");
+    // Seed, "A single sedimenting sphere": cells, cell faces and DOFs of levels 1-5.
+    let table = [
+        (1, 625, 2_150, 7_075),
+        (2, 5_000, 16_100, 53_300),
+        (3, 40_000, 124_400, 413_200),
+        (4, 320_000, 977_600, 3_252_800),
+        (5, 2_560_000, 7_750_400, 25_811_200),
+    ];
+    for (level, cells, faces, dofs) in table {
+        let line = stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(&level.to_string()))
+            .unwrap_or_else(|| panic!("no line for level {level}:\n{stdout}"));
+        let words: Vec<&str> = line.split_whitespace().collect();
+        assert!(
+            words.contains(&format!("{cells}").as_str())
+                && words.contains(&format!("{faces}").as_str())
+                && words.contains(&format!("{dofs}").as_str()),
+            "level {level}: expected {cells} cells, {faces} faces, {dofs} DOFs in `{line}`"
+        );
+    }
+    // --set fluid.level moves the run's level; a fluid-only scene runs no DEM system.
+    let (code, stdout, _) = run_cli(&["check", scene.to_str().unwrap(), "--set", "fluid.level=4"]);
+    assert_eq!(code, 0);
+    let marked = stdout
+        .lines()
+        .find(|l| l.contains("<- this run"))
+        .expect("marked level");
+    assert!(marked.contains("3252800"), "{marked}");
+    for dem in ["verlet_list", "hertz_contact", "gear_predict"] {
+        assert!(
+            !stdout.contains(dem),
+            "a fluid-only scene runs {dem}:\n{stdout}"
+        );
+    }
+}
+
+#[test]
+fn bad_fluid_input_exits_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let base = channel();
+    let edit = |from: &str, to: &str| {
+        assert!(base.contains(from), "`{from}` not in the channel case");
+        base.replacen(from, to, 1)
+    };
+    let cases = [
+        (
+            "zero_viscosity.toml",
+            edit("viscosity = 0.01", "viscosity = 0.0"),
+            "fluid.viscosity",
+        ),
+        (
+            // 0.3 does not divide the box sides 10 and 2.
+            "undivided.toml",
+            edit("cells = [25, 5, 5]", "cell_size = 0.3"),
+            "fluid.cell_size",
+        ),
+        (
+            "level_zero.toml",
+            edit("level = 2", "level = 0"),
+            "fluid.level",
+        ),
+        (
+            "negative_dt.toml",
+            edit("dt = 1.0e-3\nscheme", "dt = -1.0e-3\nscheme"),
+            "fluid.dt",
+        ),
+        (
+            "half_periodic.toml",
+            edit(
+                "xmax = { type = \"outflow\" }",
+                "xmax = { type = \"periodic\" }",
+            ),
+            "fluid.boundaries.xmin",
+        ),
+        (
+            "misspelt.toml",
+            edit("viscosity = 0.01", "viscosty = 0.01"),
+            "fluid.viscosty",
+        ),
+        (
+            "grid_without_viscosity.toml",
+            edit("viscosity = 0.01\n", ""),
+            "fluid.viscosity",
+        ),
+    ];
+    for (name, text, field) in &cases {
+        let path = write_scene(dir.path(), name, text);
+        let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 2, "{name}: expected exit 2\n{stderr}");
+        assert!(
+            stderr.contains(&format!("`{field}`")),
+            "{name}: the message does not name `{field}`:\n{stderr}"
+        );
+    }
+}
