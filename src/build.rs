@@ -332,9 +332,12 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             .position(|m| m.name == name)
             .expect("validated material name") as u16
     };
-    if let Some(f) = &scene.fluid {
-        crate::fluid::fluid_grid(f, path)?;
-    }
+    let flow = match &scene.fluid {
+        Some(f) => {
+            crate::fluid::fluid_grid(f, path)?.map(|grid| crate::fluid::fluid_flow(f, &grid))
+        }
+        None => None,
+    };
     let rho_f = scene.fluid.as_ref().map_or(0.0, |f| f.density);
     let g = scene.simulation.gravity;
     let body = BodyAcceleration {
@@ -450,6 +453,9 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             world.insert_resource(rotation);
         }
         world.insert_resource(laws);
+    }
+    if let Some(flow) = flow {
+        world.insert_resource(flow);
     }
     if scene.spheres.iter().any(|s| s.fixed) {
         let mut clamped = Clamped::default();

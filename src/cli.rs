@@ -278,15 +278,26 @@ fn run(args: RunArgs) -> ExitCode {
             sim.bytes_per_particle()
         );
         let end = sim.scene.simulation.end_time;
-        if sim_time < end && report.failure.is_none() {
+        let dt = sim.scene.simulation.dt;
+        if sim_time + 0.5 * dt < end && report.failure.is_none() {
             let n_now = sim.world.resource::<grainflow_components::Particles>().len();
             let ahead = sim.particle_steps_until(end, n_now);
-            let _ = writeln!(
-                out,
-                "projected wall time to end_time = {end} s: {:.0} s more ({:.3e} particle-steps, inflows included, at the measured rate)",
-                ahead / rate,
-                ahead
-            );
+            if ahead > 0.0 && rate > 0.0 {
+                let _ = writeln!(
+                    out,
+                    "projected wall time to end_time = {end} s: {:.0} s more ({:.3e} particle-steps, inflows included, at the measured rate)",
+                    ahead / rate,
+                    ahead
+                );
+            } else {
+                // No particles (a flow only): project by steps.
+                let steps = ((end - sim_time) / dt).round();
+                let _ = writeln!(
+                    out,
+                    "projected wall time to end_time = {end} s: {:.0} s more ({steps} steps at the measured rate)",
+                    steps * report.wall_seconds / report.steps.max(1) as f64
+                );
+            }
         }
         emit(&out);
         match report.failure {

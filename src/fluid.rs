@@ -3,9 +3,12 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use grainflow_fluid::{Boundaries, BoundaryKind, Grid, GridError};
+use grainflow_components::{FluidFlow, FluidStats};
+use grainflow_fluid::{
+    Boundaries, BoundaryKind, Grid, GridError, NavierStokes, NsConfig, TimeScheme,
+};
 
-use crate::scene::{Fluid, FluidBoundary, InflowProfile, SceneError};
+use crate::scene::{Fluid, FluidBoundary, FluidScheme, InflowProfile, SceneError};
 
 /// Coarse cells of the fluid box: `cells`, or the box divided by `cell_size`.
 pub fn coarse_cells(f: &Fluid) -> [usize; 3] {
@@ -139,4 +142,51 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
         f.viscosity.unwrap_or_default() * dt / (h * h)
     );
     out
+}
+
+/// The flow solver of the scene's fluid grid, at rest, with the boundary velocities set:
+/// walls and lids their velocity, inflows their uniform velocity or the parabolic profile
+/// U prod_t 4 (x_t - a_t)(b_t - x_t)/(b_t - a_t)^2 over the side's two tangential
+/// directions t (peak U at the side's centre, zero on its edges).
+pub fn fluid_flow(f: &Fluid, grid: &Grid) -> FluidFlow {
+    let dt = f.dt.expect("validated");
+    let mut cfg = NsConfig::new(f.viscosity.expect("validated"), dt);
+    cfg.scheme = match f.scheme {
+        FluidScheme::FractionalStep => TimeScheme::FractionalStepTheta,
+        FluidScheme::CrankNicolson => TimeScheme::CrankNicolson,
+        FluidScheme::BackwardEuler => TimeScheme::BackwardEuler,
+    };
+    let mut solver = NavierStokes::new(grid, cfg, grid.dirichlet_mask());
+    let (lo, hi) = (grid.lower, grid.upper);
+    for (d, sides) in f.boundaries.sides().iter().enumerate() {
+        for (side, (_, b)) in sides.iter().enumerate() {
+            match b {
+                FluidBoundary::Wall { velocity } => {
+                    solver.set_side_velocity(d, side, |_| *velocity)
+                }
+                FluidBoundary::Inflow { velocity, profile } => {
+                    let (velocity, profile) = (*velocity, *profile);
+                    solver.set_side_velocity(d, side, move |x| {
+                        let shape = match profile {
+                            InflowProfile::Uniform => 1.0,
+                            InflowProfile::Parabolic => (0..3)
+                                .filter(|&t| t != d)
+                                .map(|t| {
+                                    4.0 * (x[t] - lo[t]) * (hi[t] - x[t]) / (hi[t] - lo[t]).powi(2)
+                                })
+                                .product(),
+                        };
+                        velocity.map(|v| v * shape)
+                    })
+                }
+                FluidBoundary::Outflow | FluidBoundary::Periodic => {}
+            }
+        }
+    }
+    FluidFlow {
+        solver,
+        dt,
+        next_time: 0.0,
+        stats: FluidStats::default(),
+    }
 }

@@ -6,8 +6,8 @@ use std::time::Instant;
 
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Clamped, ContactHistory, GearState, Materials, Particles, PerParticle, Rotation, RunHealth,
-    SimClock, VerletList, VerletState, WallHistory,
+    Clamped, ContactHistory, FluidFlow, GearState, Materials, Particles, PerParticle, Rotation,
+    RunHealth, SimClock, VerletList, VerletState, WallHistory,
 };
 use grainflow_systems::schedule::Slot;
 use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
@@ -264,6 +264,33 @@ impl Simulation {
         rows + (list_bytes + self.contact_store_bytes()) / n
     }
 
+    /// The `fluid` object of the run report: level, degrees of freedom, steps, wall seconds
+    /// per fluid step, and per sub-problem the multigrid cycles per step and the mean
+    /// (geometric) residual reduction per cycle. Null without a fluid grid.
+    pub fn fluid_summary(&self) -> serde_json::Value {
+        let Some(flow) = self.world.get_resource::<FluidFlow>() else {
+            return serde_json::Value::Null;
+        };
+        let s = &flow.stats;
+        let steps = s.steps.max(1) as f64;
+        serde_json::json!({
+            "level": flow.solver.grid().level,
+            "dofs": flow.solver.grid().dofs(),
+            "steps": s.steps,
+            "dt": flow.dt,
+            "mean_step_s": s.seconds / steps,
+            "momentum": {
+                "cycles_per_step": s.momentum_cycles as f64 / steps,
+                "mean_reduction_per_cycle": (s.momentum_log_rate / steps).exp(),
+            },
+            "pressure": {
+                "cycles_per_step": s.pressure_cycles as f64 / steps,
+                "mean_reduction_per_cycle": (s.pressure_log_rate / steps).exp(),
+            },
+            "max_divergence": s.max_divergence,
+        })
+    }
+
     /// Memory of the contact store (per-pair and per-wall-contact history), bytes.
     pub fn contact_store_bytes(&self) -> f64 {
         let pairs = self
@@ -315,6 +342,7 @@ impl Simulation {
                 crate::scene::IntegratorName::VelocityVerlet => "velocity_verlet",
             },
             "schedule": self.step_systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
+            "fluid": self.fluid_summary(),
             "observables": {},
         })
     }

@@ -116,3 +116,40 @@ fn bad_fluid_input_exits_2_naming_the_field() {
         );
     }
 }
+
+/// A run of the channel (level 1, 10 fluid steps) reports its solver in `summary.json`:
+/// level, DOFs, steps, and a pressure multigrid reducing the residual by at most 0.1 per
+/// V-cycle (the bar for the pressure Poisson problem); the discrete divergence
+/// after each step stays at the solver tolerance.
+#[test]
+fn fluid_run_reports_its_solver() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scene = write_scene(dir.path(), "channel.toml", &channel());
+    let out = dir.path().join("out");
+    let (code, stdout, stderr) = run_cli(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--steps",
+        "10",
+        "--set",
+        "fluid.level=1",
+    ]);
+    assert_eq!(code, 0, "stdout:\n{stdout}\nstderr:\n{stderr}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let fluid = &summary["fluid"];
+    assert_eq!(fluid["level"], 1, "{fluid}");
+    assert_eq!(fluid["dofs"], 7075, "{fluid}");
+    assert_eq!(fluid["steps"], 10, "{fluid}");
+    let rate = fluid["pressure"]["mean_reduction_per_cycle"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        rate > 0.0 && rate <= 0.1,
+        "pressure multigrid: {rate} per cycle"
+    );
+    let divergence = fluid["max_divergence"].as_f64().unwrap();
+    assert!(divergence < 1e-6, "divergence after a step: {divergence}");
+}

@@ -8,6 +8,7 @@
 
 pub mod clock;
 pub mod contact_law;
+pub mod fluid;
 pub mod health;
 pub mod inflow;
 pub mod integrator;
@@ -22,6 +23,7 @@ pub use contact_law::{
     AdhesionLaw, ContactLaw, ContactLaws, FrictionLaw, HistoryLayout, RollingLaw,
     TangentialStiffness, WallHistory,
 };
+pub use fluid::{FluidFlow, FluidStats};
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, VerletState};

@@ -8,6 +8,7 @@
 //! integer reduction vectorises where `f64::max` (with its NaN rule) would not.
 
 pub mod clamp;
+pub mod fluid;
 pub mod friction;
 pub mod gear;
 pub mod granular;

@@ -12,8 +12,8 @@
 //! 6. `Contact`: contact forces: Hertz normal + damping between particles and with walls
 //!    (`hertz_contact`), or, when some material pair has friction, rolling resistance or
 //!    adhesion, the same plus those models with per-contact history (`granular_contact`)
-//! 7. `HydrodynamicSampling`, `VelocityBlending`, `MultigridFluid`: the fluid coupling
-//!    (reserved; no system yet)
+//! 7. `HydrodynamicSampling`, `VelocityBlending` (the coupling: reserved, no system yet),
+//!    `MultigridFluid`: a Navier-Stokes step whenever the fluid time is reached
 //! 8. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation under
 //!    contact torques; the clock; kinematic (fixed) particles put back on their path
 //! 9. `Monitor`: stability checks (overlap, non-finite state), kinetic energy
@@ -27,10 +27,12 @@ use bevy_ecs::schedule::SingleThreadedExecutor;
 use grainflow_components::{GearState, IntegratorKind, VerletState, Walls};
 
 use crate::clamp::has_clamped;
+use crate::fluid::has_fluid;
 use crate::granular::has_contact_laws;
 use crate::rotation::has_rotation;
 use crate::{
-    clamp, gear, granular, hertz, inflow, monitor, neighbour_list, rotation, rows, verlet, walls,
+    clamp, fluid, gear, granular, hertz, inflow, monitor, neighbour_list, rotation, rows, verlet,
+    walls,
 };
 use grainflow_components::{Clamped, Rotation};
 
@@ -305,6 +307,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: has_contact_laws,
         add: |s, set| {
             s.add_systems(granular::granular_contact.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "multigrid_fluid",
+        set: StepSet::MultigridFluid,
+        phase: Phase::Step,
+        wanted: has_fluid,
+        add: |s, set| {
+            s.add_systems(fluid::multigrid_fluid.in_set(set));
         },
     },
     SystemEntry {
