@@ -614,6 +614,10 @@ impl Kernel<'_> {
                             let at = (e - entry_base) * width;
                             let row = &mut hist[at..at + width];
                             let (dist, nrm) = wall_distance(&wall.shape, [xi.x, xi.y, xi.z]);
+                            // Apart, with no history (so not bonded): nothing to compute.
+                            if dist > ri && row.iter().all(|&h| h == 0.0) {
+                                continue;
+                            }
                             let nrm = V3::new(nrm[0], nrm[1], nrm[2]);
                             let geometry = Geometry {
                                 n: nrm,
