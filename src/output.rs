@@ -1,11 +1,13 @@
-//! Particle output: `particles.h5` (one group `/step_NNNNNNNN` per output time, rows in
-//! stable id order) and the `particles.xdmf` sidecar that ParaView opens. The XDMF file is
-//! rewritten after every frame, so a run that stops early leaves readable output.
+//! Output: `particles.h5` (one group `/step_NNNNNNNN` per output time, rows in stable id
+//! order) and the `particles.xdmf` sidecar that ParaView opens; with a fluid grid also
+//! `fluid.h5` (the same groups: cell-centred `velocity` and `pressure`) and `fluid.xdmf`
+//! (a structured grid, `3DCoRectMesh`). The XDMF files are rewritten after every frame,
+//! so a run that stops early leaves readable output.
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use bevy_ecs::prelude::*;
-use grainflow_components::{Particles, RunHealth, SimClock};
+use grainflow_components::{FluidFlow, Particles, RunHealth, SimClock};
 
 /// One written frame.
 #[derive(Debug, Clone)]
@@ -24,6 +26,8 @@ pub struct ParticleOutput {
     pub interval: f64,
     pub next_time: f64,
     pub error: Option<String>,
+    /// `fluid.h5`, opened at the first frame of a run with a fluid grid.
+    pub fluid: Option<hdf5::File>,
 }
 
 impl ParticleOutput {
@@ -40,13 +44,23 @@ impl ParticleOutput {
             interval,
             next_time: 0.0,
             error: None,
+            fluid: None,
         })
     }
 
-    /// Write the particles as frame `clock.step`, rows sorted by id.
-    pub fn write_frame(&mut self, particles: &Particles, clock: &SimClock) -> Result<(), String> {
+    /// Write the particles as frame `clock.step`, rows sorted by id, and the flow when
+    /// there is one.
+    pub fn write_frame(
+        &mut self,
+        particles: &Particles,
+        flow: Option<&FluidFlow>,
+        clock: &SimClock,
+    ) -> Result<(), String> {
         if self.frames.last().is_some_and(|f| f.step == clock.step) {
             return Ok(());
+        }
+        if let Some(flow) = flow {
+            self.write_fluid_frame(flow, clock)?;
         }
         let _span = tracing::info_span!("write_particles").entered();
         let n = particles.len();
@@ -116,6 +130,97 @@ impl ParticleOutput {
         self.write_xdmf()
     }
 
+    /// The flow at cell centres: each velocity component is the mean of its six face
+    /// values (every Q1~ basis function is 1/6 at the cell centre), the pressure is the
+    /// cell's.
+    fn write_fluid_frame(&mut self, flow: &FluidFlow, clock: &SimClock) -> Result<(), String> {
+        let _span = tracing::info_span!("write_fluid").entered();
+        let h5 = |e: hdf5::Error| format!("writing fluid.h5: {e}");
+        if self.fluid.is_none() {
+            let path = self.dir.join("fluid.h5");
+            self.fluid = Some(
+                hdf5::File::create(&path)
+                    .map_err(|e| format!("cannot create {}: {e}", path.display()))?,
+            );
+        }
+        let file = self.fluid.as_ref().expect("opened above");
+        let solver = &flow.solver;
+        let grid = solver.grid();
+        let lay = grid.layout();
+        let cells = grid.num_cells();
+        let mut velocity = vec![0.0; 3 * cells];
+        for c in 0..cells {
+            let at = lay.cell_coords(c);
+            for a in 0..3 {
+                for f in [lay.face(a, at), lay.face(a, lay.upper(a, at))] {
+                    for d in 0..3 {
+                        velocity[3 * c + d] += solver.u[d][f] / 6.0;
+                    }
+                }
+            }
+        }
+        let group = file
+            .create_group(&format!("step_{:08}", clock.step))
+            .map_err(h5)?;
+        group
+            .new_attr::<f64>()
+            .create("time")
+            .map_err(h5)?
+            .write_scalar(&clock.time)
+            .map_err(h5)?;
+        group
+            .new_dataset::<f64>()
+            .shape([cells, 3])
+            .create("velocity")
+            .map_err(h5)?
+            .write_raw(&velocity)
+            .map_err(h5)?;
+        group
+            .new_dataset::<f64>()
+            .shape([cells])
+            .create("pressure")
+            .map_err(h5)?
+            .write_raw(&solver.p)
+            .map_err(h5)?;
+        file.flush().map_err(h5)?;
+        self.write_fluid_xdmf(flow, clock)
+    }
+
+    fn write_fluid_xdmf(&self, flow: &FluidFlow, clock: &SimClock) -> Result<(), String> {
+        let grid = flow.solver.grid();
+        let [nx, ny, nz] = grid.n();
+        let [hx, hy, hz] = grid.h();
+        let [x0, y0, z0] = grid.lower;
+        let mut x = String::new();
+        x.push_str("<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n");
+        x.push_str("  <Grid Name=\"fluid\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+        // Frames written so far: those of the particle file plus this one.
+        let steps = self
+            .frames
+            .iter()
+            .map(|f| (f.step, f.time))
+            .chain([(clock.step, clock.time)]);
+        for (step, time) in steps {
+            let g = format!("fluid.h5:/step_{step:08}");
+            let _ = writeln!(x, "   <Grid Name=\"step_{step:08}\" GridType=\"Uniform\">");
+            let _ = writeln!(x, "    <Time Value=\"{time:.17e}\"/>");
+            let _ = writeln!(
+                x,
+                "    <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"{} {} {}\"/>",
+                nz + 1,
+                ny + 1,
+                nx + 1
+            );
+            let _ = writeln!(x, "    <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n     <DataItem Dimensions=\"3\" Format=\"XML\">{z0:e} {y0:e} {x0:e}</DataItem>\n     <DataItem Dimensions=\"3\" Format=\"XML\">{hz:e} {hy:e} {hx:e}</DataItem>\n    </Geometry>");
+            let _ = writeln!(x, "    <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Cell\">\n     <DataItem Dimensions=\"{nz} {ny} {nx} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{g}/velocity</DataItem>\n    </Attribute>");
+            let _ = writeln!(x, "    <Attribute Name=\"pressure\" AttributeType=\"Scalar\" Center=\"Cell\">\n     <DataItem Dimensions=\"{nz} {ny} {nx}\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{g}/pressure</DataItem>\n    </Attribute>");
+            x.push_str("   </Grid>\n");
+        }
+        x.push_str("  </Grid>\n </Domain>\n</Xdmf>\n");
+        let path = self.dir.join("fluid.xdmf");
+        std::fs::write(&path, x).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    }
+
     fn write_xdmf(&self) -> Result<(), String> {
         let mut x = String::new();
         x.push_str("<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n");
@@ -152,6 +257,7 @@ impl ParticleOutput {
 /// Output system: writes a frame when the output time has come and the step is healthy.
 pub fn write_particles(
     particles: Res<Particles>,
+    flow: Option<Res<FluidFlow>>,
     clock: Res<SimClock>,
     health: Res<RunHealth>,
     mut out: ResMut<ParticleOutput>,
@@ -164,7 +270,7 @@ pub fn write_particles(
         while out.next_time <= clock.time {
             out.next_time += out.interval;
         }
-        if let Err(e) = out.write_frame(&particles, &clock) {
+        if let Err(e) = out.write_frame(&particles, flow.as_deref(), &clock) {
             out.error = Some(e);
         }
     }

@@ -103,7 +103,11 @@ impl Simulation {
         let clock = *self.world.resource::<SimClock>();
         if let Some(mut out) = self.world.remove_resource::<ParticleOutput>() {
             out.next_time = out.interval;
-            if let Err(e) = out.write_frame(self.world.resource::<Particles>(), &clock) {
+            if let Err(e) = out.write_frame(
+                self.world.resource::<Particles>(),
+                self.world.get_resource::<FluidFlow>(),
+                &clock,
+            ) {
                 out.error = Some(e);
             }
             self.world.insert_resource(out);
@@ -181,7 +185,11 @@ impl Simulation {
         if failure.is_none() {
             let clock = *self.world.resource::<SimClock>();
             if let Some(mut out) = self.world.remove_resource::<ParticleOutput>() {
-                if let Err(e) = out.write_frame(self.world.resource::<Particles>(), &clock) {
+                if let Err(e) = out.write_frame(
+                    self.world.resource::<Particles>(),
+                    self.world.get_resource::<FluidFlow>(),
+                    &clock,
+                ) {
                     failure = Some(e);
                 }
                 self.world.insert_resource(out);

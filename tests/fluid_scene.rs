@@ -152,4 +152,20 @@ fn fluid_run_reports_its_solver() {
     );
     let divergence = fluid["max_divergence"].as_f64().unwrap();
     assert!(divergence < 1e-6, "divergence after a step: {divergence}");
+    // fluid.h5: the first and last frames, cell-centred velocity and pressure on the
+    // 25 x 5 x 5 cells of level 1, the inflow moving the fluid along +x; fluid.xdmf beside.
+    let file = hdf5::File::open(out.join("fluid.h5")).expect("fluid.h5");
+    let frames = file.member_names().expect("frames");
+    assert_eq!(frames, ["step_00000000", "step_00000010"], "{frames:?}");
+    let last = file.group("step_00000010").expect("last frame");
+    let velocity: Vec<f64> = last.dataset("velocity").unwrap().read_raw().unwrap();
+    let pressure: Vec<f64> = last.dataset("pressure").unwrap().read_raw().unwrap();
+    assert_eq!((velocity.len(), pressure.len()), (3 * 625, 625));
+    let mean_u: f64 = velocity.chunks(3).map(|v| v[0]).sum::<f64>() / 625.0;
+    assert!(
+        mean_u > 0.05,
+        "the inflow does not move the fluid: mean u_x {mean_u}"
+    );
+    let xdmf = std::fs::read_to_string(out.join("fluid.xdmf")).expect("fluid.xdmf");
+    assert!(xdmf.contains("3DCoRectMesh") && xdmf.contains("fluid.h5:/step_00000010/pressure"));
 }
