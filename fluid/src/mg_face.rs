@@ -295,18 +295,7 @@ impl FaceMg {
         for _ in 0..sweeps {
             for s in 0..6 {
                 let (a, parity) = if forward { order[s] } else { order[5 - s] };
-                let (x, b, mask, op) = (&l.x, &l.b, &l.mask, &l.op);
-                op.par_family(a, &mut l.tmp, |f, o| {
-                    let i = op.layout.face(a, f);
-                    *o = if f[a] % 2 != parity || mask[i] {
-                        x[i]
-                    } else {
-                        let (d, off) = op.row(a, f, x);
-                        (b[i] - off) / d
-                    };
-                });
-                let range = l.op.layout.off[a]..l.op.layout.off[a + 1];
-                l.x[range.clone()].copy_from_slice(&l.tmp[range]);
+                l.op.gauss_seidel_colour(a, parity, &mut l.x, &l.b, &l.mask, &mut l.tmp);
             }
         }
     }

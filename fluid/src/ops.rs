@@ -2,7 +2,11 @@
 //!
 //! * [`FaceOperator`]: the scalar Q1~ operator `alpha M + nu K` (mass plus viscous
 //!   stiffness) acting on one velocity component, assembled on the fly from the constant
-//!   element matrices of [`crate::element`]. A face with one adjacent cell (a box side that
+//!   element matrices of [`crate::element`]. The rows are evaluated along the contiguous
+//!   `i` rows of each face family: faces away from the box sides and periodic wraps share
+//!   their neighbour offsets (one specialised loop per row, `FaceOperator::for_row`),
+//!   and with convection a per-face table holds the diagonal and the signed fluxes and
+//!   weights, computed once with the same operations as the generic row. A face with one adjacent cell (a box side that
 //!   is not periodic) gets only that cell's contribution: the natural (do-nothing)
 //!   condition. Dirichlet faces are handled by the callers through a mask (their rows are
 //!   never solved for; their values enter the other rows as known data).
@@ -93,6 +97,11 @@ pub struct FaceOperator {
     nu: f64,
     /// Linearised convection, if any.
     conv: Option<Convection>,
+    /// With convection, per face: the diagonal entry, then per adjacent cell (in the order
+    /// minus, plus of the existing cells) the four fluxes `d` and the four weights `e` of
+    /// the pairs `(b0 lower, b0 upper, b1 lower, b1 upper)`, signed as seen from the
+    /// face (see [`FaceOperator::face_table`]).
+    faces: Vec<[f64; 17]>,
 }
 
 /// Index of the unordered family pair `{a, b}` (`a != b`): `{x,y}` 0, `{x,z}` 1, `{y,z}` 2.
@@ -207,6 +216,7 @@ impl FaceOperator {
             adj,
             nu,
             conv: None,
+            faces: Vec::new(),
         }
     }
 
@@ -223,8 +233,54 @@ impl FaceOperator {
 
     /// Adds the linearised convection `N(w)` of the velocity `w` (replacing any earlier).
     pub fn with_convection(mut self, grid: &Grid, w: [&[f64]; 3]) -> Self {
-        self.conv = Some(Convection::new(grid, self.nu, w));
+        let conv = Convection::new(grid, self.nu, w);
+        self.faces = self.face_table(&conv);
+        self.conv = Some(conv);
         self
+    }
+
+    /// The per-face convection table (see the field `faces`): the diagonal entry computed
+    /// with exactly the operations of [`FaceOperator::row`] and the signed `d`, `e` of
+    /// the face's pairs, so that the row loops read one contiguous record per face.
+    fn face_table(&self, conv: &Convection) -> Vec<[f64; 17]> {
+        let lay = &self.layout;
+        let mut out = vec![[0.0; 17]; lay.num_faces()];
+        for a in 0..3 {
+            out[lay.off[a]..lay.off[a + 1]]
+                .par_iter_mut()
+                .with_min_len(MIN_TASK / 17)
+                .enumerate()
+                .for_each(|(idx, o)| {
+                    let f = lay.face_coords(a, idx);
+                    let mut diag = 0.0;
+                    let mut slot = 0;
+                    for (side, cell) in lay.face_cells(a, f).into_iter().enumerate() {
+                        let Some(c) = cell else { continue };
+                        diag += self.same[a];
+                        let data = &conv.cells[lay.cell(c)];
+                        let sa = 1 - side;
+                        for (q, b) in others(a).into_iter().enumerate() {
+                            let k = pair_index(a, b);
+                            for sb in 0..2 {
+                                let (idx, d) = if a < b {
+                                    let idx = 4 * k + 2 * sa + sb;
+                                    (idx, data[idx])
+                                } else {
+                                    let idx = 4 * k + 2 * sb + sa;
+                                    (idx, -data[idx])
+                                };
+                                let e = data[12 + idx];
+                                diag += e - 7.0 / 18.0 * d;
+                                o[1 + 8 * slot + 2 * q + sb] = d;
+                                o[5 + 8 * slot + 2 * q + sb] = e;
+                            }
+                        }
+                        slot += 1;
+                    }
+                    o[0] = diag;
+                });
+        }
+        out
     }
 
     /// Whether the operator carries a (non-symmetric) convection part.
@@ -279,10 +335,174 @@ impl FaceOperator {
         (diag, off)
     }
 
-    /// Calls `g(face coords, row output)` for every face of family `a`, rows in parallel.
-    pub(crate) fn par_family<F>(&self, a: usize, out: &mut [f64], g: F)
+    /// For the faces of row `(j, k)` of family `a` (face coordinates `[i, j, k]`) with
+    /// `i % 2 == p` (all `i` if `parity` is `None`): `g(i, diag, off)` with the diagonal
+    /// entry and `sum_{j != i} A_ij x_j` of the row, exactly as [`FaceOperator::row`]
+    /// computes them (same operations in the same order). The faces whose neighbours are
+    /// shift-invariant along `i` (no box side, no periodic wrap) run through one
+    /// specialised loop with precomputed index offsets, the others one by one.
+    #[inline]
+    pub(crate) fn for_row(
+        &self,
+        a: usize,
+        j: usize,
+        k: usize,
+        x: &[f64],
+        parity: Option<usize>,
+        mut g: impl FnMut(usize, f64, f64),
+    ) {
+        let lay = &self.layout;
+        let len = lay.fdim[a][0];
+        let n0 = lay.n[0];
+        // shift-invariant range [i0, i1): both cells of an x-face exist, and no upper
+        // x-face wraps around a periodic x side
+        let i0 = usize::from(a == 0);
+        let i1 = if lay.periodic[0] { n0 - 1 } else { n0 };
+        let (step, first) = match parity {
+            Some(p) => (2, p),
+            None => (1, 0),
+        };
+        // first face at or after `lo` of the selected parity
+        let first_from = |lo: usize| if step == 1 { lo } else { lo + (lo + first) % 2 };
+        if i1 <= i0 {
+            for i in (first..len).step_by(step) {
+                self.segment_at(a, j, k, x, i, i, i + 1, 1, &mut g);
+            }
+            return;
+        }
+        for i in (first..i0).step_by(step) {
+            self.segment_at(a, j, k, x, i, i, i + 1, 1, &mut g);
+        }
+        self.segment_at(a, j, k, x, i0, first_from(i0), i1, step, &mut g);
+        for i in (first_from(i1)..len).step_by(step) {
+            self.segment_at(a, j, k, x, i, i, i + 1, 1, &mut g);
+        }
+    }
+
+    /// [`FaceOperator::segment`] for the faces `start, start + step, .. < end` of row
+    /// `(j, k)` of family `a`, with the neighbour offsets taken at face `i0` (a single face
+    /// `i0 = start`, `end = start + 1` is always valid).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn segment_at(
+        &self,
+        a: usize,
+        j: usize,
+        k: usize,
+        x: &[f64],
+        i0: usize,
+        start: usize,
+        end: usize,
+        step: usize,
+        g: &mut impl FnMut(usize, f64, f64),
+    ) {
+        let (sides, count) = self.row_sides(a, [i0, j, k]);
+        let fb = self.row_start(a, j, k) + i0;
+        let conv = self.conv.is_some();
+        match (count, conv) {
+            (1, false) => self.segment::<1, false>([sides[0]], a, x, fb, i0, start, end, step, g),
+            (2, false) => self.segment::<2, false>(sides, a, x, fb, i0, start, end, step, g),
+            (1, true) => self.segment::<1, true>([sides[0]], a, x, fb, i0, start, end, step, g),
+            (2, true) => self.segment::<2, true>(sides, a, x, fb, i0, start, end, step, g),
+            _ => {
+                for i in (start..end).step_by(step) {
+                    let (d, o) = self.row(a, [i, j, k], x);
+                    g(i, d, o);
+                }
+            }
+        }
+    }
+
+    /// Index offsets of the adjacent cells of face `f` of family `a` (see [`RowSide`]).
+    #[inline]
+    fn row_sides(&self, a: usize, f: [usize; 3]) -> ([RowSide; 2], usize) {
+        let lay = &self.layout;
+        let [b0, b1] = others(a);
+        let mut out = [RowSide::default(); 2];
+        let mut count = 0;
+        for (side, cell) in lay.face_cells(a, f).into_iter().enumerate() {
+            let Some(c) = cell else { continue };
+            let opp = if side == 0 { c } else { lay.upper(a, c) };
+            out[count] = RowSide {
+                opp: lay.face(a, opp),
+                xb: [
+                    lay.face(b0, c),
+                    lay.face(b0, lay.upper(b0, c)),
+                    lay.face(b1, c),
+                    lay.face(b1, lay.upper(b1, c)),
+                ],
+            };
+            count += 1;
+        }
+        (out, count)
+    }
+
+    /// The shift-invariant part of [`FaceOperator::for_row`] on family `a`: faces
+    /// `i = start, start + step, ... < end`, whose neighbour indices are those of `sides`
+    /// (taken at face `i0`, global index `fbase`) plus `i - i0`; the arithmetic is that of
+    /// [`FaceOperator::row`] (with convection the diagonal comes from the face table).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn segment<const N: usize, const CONV: bool>(
+        &self,
+        sides: [RowSide; N],
+        a: usize,
+        x: &[f64],
+        fbase: usize,
+        i0: usize,
+        start: usize,
+        end: usize,
+        step: usize,
+        g: &mut impl FnMut(usize, f64, f64),
+    ) {
+        let same = self.same[a];
+        let opp_c = self.opp[a];
+        let [b0, b1] = others(a);
+        let (adj0, adj1) = (self.adj[a][b0], self.adj[a][b1]);
+        for i in (start..end).step_by(step) {
+            let t = i - i0;
+            let mut diag = 0.0;
+            let mut off = 0.0;
+            let fc: &[f64; 17] = if CONV {
+                &self.faces[fbase + t]
+            } else {
+                &[0.0; 17]
+            };
+            for (slot, s) in sides.iter().enumerate() {
+                if !CONV {
+                    diag += same;
+                }
+                let x_opp = x[s.opp + t];
+                off += opp_c * x_opp;
+                let xb = [
+                    [x[s.xb[0] + t], x[s.xb[1] + t]],
+                    [x[s.xb[2] + t], x[s.xb[3] + t]],
+                ];
+                off += adj0 * (xb[0][0] + xb[0][1]) + adj1 * (xb[1][0] + xb[1][1]);
+                if CONV {
+                    let rest = x_opp + xb[0][0] + xb[0][1] + xb[1][0] + xb[1][1];
+                    for q in 0..2 {
+                        for sb in 0..2 {
+                            let vj = xb[q][sb];
+                            let d = fc[1 + 8 * slot + 2 * q + sb];
+                            let e = fc[5 + 8 * slot + 2 * q + sb];
+                            off += d * (2.0 / 3.0 * vj - rest / 18.0) - e * vj;
+                        }
+                    }
+                }
+            }
+            if CONV {
+                diag = fc[0];
+            }
+            g(i, diag, off);
+        }
+    }
+
+    /// Calls `g(j, k, row)` for every row (faces `[0.., j, k]`) of family `a` of `out`,
+    /// rows in parallel (each output row written by one task).
+    pub(crate) fn par_rows<F>(&self, a: usize, out: &mut [f64], g: F)
     where
-        F: Fn([usize; 3], &mut f64) + Sync,
+        F: Fn(usize, usize, &mut [f64]) + Sync,
     {
         let lay = &self.layout;
         let d = lay.fdim[a];
@@ -290,20 +510,23 @@ impl FaceOperator {
             .par_chunks_mut(d[0])
             .with_min_len(min_rows(d[0]))
             .enumerate()
-            .for_each(|(r, row)| {
-                let (j, k) = (r % d[1], r / d[1]);
-                for (i, o) in row.iter_mut().enumerate() {
-                    g([i, j, k], o);
-                }
-            });
+            .for_each(|(r, row)| g(r % d[1], r / d[1], row));
+    }
+
+    /// Index of the first face of row `(j, k)` of family `a`.
+    #[inline]
+    pub(crate) fn row_start(&self, a: usize, j: usize, k: usize) -> usize {
+        self.layout.face(a, [0, j, k])
     }
 
     /// `y = A x`.
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
         for a in 0..3 {
-            self.par_family(a, y, |f, o| {
-                let (d, off) = self.row(a, f, x);
-                *o = d * x[self.layout.face(a, f)] + off;
+            self.par_rows(a, y, |j, k, row| {
+                let base = self.row_start(a, j, k);
+                self.for_row(a, j, k, x, None, |i, d, off| {
+                    row[i] = d * x[base + i] + off;
+                });
             });
         }
     }
@@ -311,17 +534,78 @@ impl FaceOperator {
     /// `r = b - A x` on the free faces, `0` on the faces with `mask` set.
     pub fn residual(&self, x: &[f64], b: &[f64], mask: &[bool], r: &mut [f64]) {
         for a in 0..3 {
-            self.par_family(a, r, |f, o| {
-                let i = self.layout.face(a, f);
-                *o = if mask[i] {
-                    0.0
-                } else {
-                    let (d, off) = self.row(a, f, x);
-                    b[i] - d * x[i] - off
-                };
+            self.par_rows(a, r, |j, k, row| {
+                let base = self.row_start(a, j, k);
+                self.for_row(a, j, k, x, None, |i, d, off| {
+                    let fi = base + i;
+                    row[i] = if mask[fi] {
+                        0.0
+                    } else {
+                        b[fi] - d * x[fi] - off
+                    };
+                });
             });
         }
     }
+
+    /// One Gauss-Seidel colour (family `a`, faces with coordinate along `a` of parity
+    /// `parity`): the new values `(b_i - off_i) / d_i` of the free faces of the colour are
+    /// computed into `tmp` from the old `x` and then copied into `x`. Faces of one colour
+    /// share no cell (their rows do not couple), so this is exactly the in-place sweep.
+    pub(crate) fn gauss_seidel_colour(
+        &self,
+        a: usize,
+        parity: usize,
+        x: &mut [f64],
+        b: &[f64],
+        mask: &[bool],
+        tmp: &mut [f64],
+    ) {
+        // the rows of the colour, and the parity of `i` inside them (`None`: all faces)
+        let sel = |j: usize, k: usize| match a {
+            0 => Some(Some(parity)),
+            1 if j % 2 == parity => Some(None),
+            2 if k % 2 == parity => Some(None),
+            _ => None,
+        };
+        {
+            let xs: &[f64] = x;
+            self.par_rows(a, tmp, |j, k, row| {
+                let Some(sel) = sel(j, k) else { return };
+                let base = self.row_start(a, j, k);
+                self.for_row(a, j, k, xs, sel, |i, d, off| {
+                    let fi = base + i;
+                    row[i] = if mask[fi] { xs[fi] } else { (b[fi] - off) / d };
+                });
+            });
+        }
+        let lay = &self.layout;
+        let d = lay.fdim[a];
+        let range = lay.off[a]..lay.off[a + 1];
+        x[range.clone()]
+            .par_chunks_mut(d[0])
+            .zip(tmp[range].par_chunks(d[0]))
+            .with_min_len(min_rows(d[0]))
+            .enumerate()
+            .for_each(|(r, (xr, tr))| match sel(r % d[1], r / d[1]) {
+                Some(Some(p)) => {
+                    for i in (p..xr.len()).step_by(2) {
+                        xr[i] = tr[i];
+                    }
+                }
+                Some(None) => xr.copy_from_slice(tr),
+                None => {}
+            });
+    }
+}
+
+/// Precomputed neighbourhood of one adjacent cell of the faces of a row segment (indices
+/// at the segment's first face): the opposite face and the four faces of the other
+/// families (`b0` lower/upper, `b1` lower/upper).
+#[derive(Debug, Clone, Copy, Default)]
+struct RowSide {
+    opp: usize,
+    xb: [usize; 4],
 }
 
 /// Lumped Q1~ mass of every face: `V/6` per adjacent cell (row sums of the mass matrix).
