@@ -262,14 +262,7 @@ impl FaceOperator {
                         for (q, b) in others(a).into_iter().enumerate() {
                             let k = pair_index(a, b);
                             for sb in 0..2 {
-                                let (idx, d) = if a < b {
-                                    let idx = 4 * k + 2 * sa + sb;
-                                    (idx, data[idx])
-                                } else {
-                                    let idx = 4 * k + 2 * sb + sa;
-                                    (idx, -data[idx])
-                                };
-                                let e = data[12 + idx];
+                                let (d, e) = convection_entry(data, a, b, k, sa, sb);
                                 diag += e - 7.0 / 18.0 * d;
                                 o[1 + 8 * slot + 2 * q + sb] = d;
                                 o[5 + 8 * slot + 2 * q + sb] = e;
@@ -318,14 +311,7 @@ impl FaceOperator {
                 for (q, b) in [b0, b1].into_iter().enumerate() {
                     let k = pair_index(a, b);
                     for (sb, &vj) in xb[q].iter().enumerate() {
-                        let (idx, d) = if a < b {
-                            let idx = 4 * k + 2 * sa + sb;
-                            (idx, data[idx])
-                        } else {
-                            let idx = 4 * k + 2 * sb + sa;
-                            (idx, -data[idx])
-                        };
-                        let e = data[12 + idx];
+                        let (d, e) = convection_entry(data, a, b, k, sa, sb);
                         diag += e - 7.0 / 18.0 * d;
                         off += d * (2.0 / 3.0 * vj - rest / 18.0) - e * vj;
                     }
@@ -837,6 +823,29 @@ impl CellOperator {
                 });
             });
     }
+}
+
+/// The convection coefficients `(d_ij, e_ij)` between face `sa` of family `a` and face
+/// `sb` of family `b` of a cell, from the cell's record `data` of [`Convection`] (`k` =
+/// `pair_index(a, b)`): the flux is stored once per unordered pair of families, so it
+/// changes sign when read from the other side; the upwind weight does not.
+#[inline]
+fn convection_entry(
+    data: &[f64],
+    a: usize,
+    b: usize,
+    k: usize,
+    sa: usize,
+    sb: usize,
+) -> (f64, f64) {
+    let (idx, d) = if a < b {
+        let idx = 4 * k + 2 * sa + sb;
+        (idx, data[idx])
+    } else {
+        let idx = 4 * k + 2 * sb + sa;
+        (idx, -data[idx])
+    };
+    (d, data[12 + idx])
 }
 
 #[cfg(test)]

@@ -49,11 +49,9 @@ fn hold(
     verlet: Option<ResMut<VerletState>>,
     rotation: Option<ResMut<Rotation>>,
 ) {
-    let held: Vec<usize> = (0..clamped.held.len())
-        .filter(|&i| clamped.held[i])
-        .collect();
+    let held = || (0..clamped.held.len()).filter(|&i| clamped.held[i]);
     for d in 0..3 {
-        for &i in &held {
+        for i in held() {
             let v = clamped.velocity[d][i];
             particles.position[d][i] = clamped.origin[d][i] + v * time;
             particles.velocity[d][i] = v;
@@ -62,7 +60,7 @@ fn hold(
     }
     let zero = |cols: &mut [grainflow_components::Columns]| {
         for col in cols.iter_mut().flatten() {
-            for &i in &held {
+            for i in held() {
                 col[i] = 0.0;
             }
         }
@@ -77,7 +75,7 @@ fn hold(
     }
     if let Some(mut verlet) = verlet {
         for d in 0..3 {
-            for &i in &held {
+            for i in held() {
                 verlet.half_velocity[d][i] = clamped.velocity[d][i];
             }
         }

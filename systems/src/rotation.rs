@@ -125,14 +125,36 @@ pub fn verlet_rotation_predict(
     clock: Res<SimClock>,
 ) {
     let _span = tracing::info_span!("verlet_rotation_predict").entered();
-    let h = 0.5 * clock.dt;
-    let Rotation { torque, aux, .. } = &mut *rotation;
+    verlet_rotation_half_step(&mut particles, &mut rotation, 0.5 * clock.dt, true);
+}
+
+/// Velocity Verlet corrector for w: w(t + dt) = w(t + dt/2) + T(t + dt)/I dt/2; then the
+/// orientation.
+pub fn verlet_rotation_correct(
+    mut particles: ResMut<Particles>,
+    mut rotation: ResMut<Rotation>,
+    clock: Res<SimClock>,
+) {
+    let _span = tracing::info_span!("verlet_rotation_correct").entered();
+    verlet_rotation_half_step(&mut particles, &mut rotation, 0.5 * clock.dt, false);
+    turn_orientations(&particles, &mut rotation, clock.dt);
+}
+
+/// The half kick `T/I h` of velocity Verlet on w: from w(t) to w(t + dt/2) and the
+/// estimate of w(t + dt) (`predict`), or from w(t + dt/2) to w(t + dt).
+fn verlet_rotation_half_step(
+    particles: &mut Particles,
+    rotation: &mut Rotation,
+    h: f64,
+    predict: bool,
+) {
+    let Rotation { torque, aux, .. } = rotation;
     let Particles {
         angular_velocity,
         inv_mass,
         radius,
         ..
-    } = &mut *particles;
+    } = particles;
     for d in 0..3 {
         (
             angular_velocity[d].par_chunks_mut(CHUNK),
@@ -145,45 +167,13 @@ pub fn verlet_rotation_predict(
             .for_each(|(w, wh, t, im, r)| {
                 for k in 0..w.len() {
                     let kick = h * t[k] * inverse_inertia(im[k], r[k]);
-                    wh[k] = w[k] + kick;
+                    if predict {
+                        wh[k] = w[k] + kick;
+                    }
                     w[k] = wh[k] + kick;
                 }
             });
     }
-}
-
-/// Velocity Verlet corrector for w: w(t + dt) = w(t + dt/2) + T(t + dt)/I dt/2; then the
-/// orientation.
-pub fn verlet_rotation_correct(
-    mut particles: ResMut<Particles>,
-    mut rotation: ResMut<Rotation>,
-    clock: Res<SimClock>,
-) {
-    let _span = tracing::info_span!("verlet_rotation_correct").entered();
-    let h = 0.5 * clock.dt;
-    let Rotation { torque, aux, .. } = &mut *rotation;
-    let Particles {
-        angular_velocity,
-        inv_mass,
-        radius,
-        ..
-    } = &mut *particles;
-    for d in 0..3 {
-        (
-            angular_velocity[d].par_chunks_mut(CHUNK),
-            aux[0][d].par_chunks(CHUNK),
-            torque[d].par_chunks(CHUNK),
-            inv_mass.par_chunks(CHUNK),
-            radius.par_chunks(CHUNK),
-        )
-            .into_par_iter()
-            .for_each(|(w, wh, t, im, r)| {
-                for k in 0..w.len() {
-                    w[k] = wh[k] + h * t[k] * inverse_inertia(im[k], r[k]);
-                }
-            });
-    }
-    turn_orientations(&particles, &mut rotation, clock.dt);
 }
 
 /// 1/I of a solid sphere, I = (2/5) m r^2.
