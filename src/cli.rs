@@ -1,4 +1,4 @@
-//! The `grainflow` command line: `run` and `check`.
+//! The `grainflow` command line: `run`, `check` and `plot` (`src/plot.rs`).
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -25,6 +25,8 @@ pub enum Command {
     Run(RunArgs),
     /// Validate a scene; print its schedule, particle count and stable time steps.
     Check(CheckArgs),
+    /// Write PNG plots of a run: flow contour slices, particle time series.
+    Plot(crate::plot::PlotArgs),
 }
 
 #[derive(Args, Debug)]
@@ -62,6 +64,7 @@ pub fn main_with(cli: Cli) -> ExitCode {
     match cli.command {
         Command::Run(args) => run(args),
         Command::Check(args) => check(args),
+        Command::Plot(args) => crate::plot::main(args),
     }
 }
 

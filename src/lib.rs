@@ -5,6 +5,7 @@ pub mod cli;
 pub mod fluid;
 pub mod lammps;
 pub mod output;
+pub mod plot;
 pub mod run;
 pub mod scene;
 pub mod stability;
