@@ -102,6 +102,37 @@ pub fn stiffness_entries(h: [f64; 3]) -> ([f64; 3], [f64; 3], [[f64; 3]; 3]) {
     (same, opp, adj)
 }
 
+/// Element matrices of the transposed-gradient part of the deformation-tensor viscous
+/// term on a box of size `h`: `2 int D(u) : D(v) = int grad u : grad v + int (grad u)^T :
+/// grad v`, and with `v = phi_F e_i`, `u_j = sum_G u_j(G) phi_G` the second term is
+/// `sum_j sum_G E[i][j][F][G] u_j(G)` with `E[i][j][F][G] = int_T d phi_G/dx_i d phi_F/dx_j`
+/// (faces in the order `[x-, x+, y-, y+, z-, z+]`; the integrand has degree 2, so the
+/// 3-point Gauss rule per direction is exact). Symmetric: `E[i][j][F][G] = E[j][i][G][F]`.
+pub fn transpose_stiffness_entries(h: [f64; 3]) -> [[[[f64; 6]; 6]; 3]; 3] {
+    let v = h[0] * h[1] * h[2];
+    let mut e = [[[[0.0; 6]; 6]; 3]; 3];
+    for &(x, wx) in &GAUSS3 {
+        for &(y, wy) in &GAUSS3 {
+            for &(z, wz) in &GAUSS3 {
+                let w = wx * wy * wz * v / 8.0;
+                let g = basis_gradient([x, y, z]);
+                // physical gradients d phi / dx_d = (2 / h_d) d phi / d xi_d
+                let gp = g.map(|gf| [0, 1, 2].map(|d| 2.0 / h[d] * gf[d]));
+                for (i, ei) in e.iter_mut().enumerate() {
+                    for (j, eij) in ei.iter_mut().enumerate() {
+                        for (f, row) in eij.iter_mut().enumerate() {
+                            for (gi, out) in row.iter_mut().enumerate() {
+                                *out += w * gp[gi][i] * gp[f][j];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    e
+}
+
 /// Gauss-Legendre rule with 3 points on `[-1, 1]`: exact for degree <= 5.
 pub const GAUSS3: [(f64, f64); 3] = [
     (-0.774_596_669_241_483_4, 5.0 / 9.0),
@@ -192,6 +223,40 @@ mod tests {
             for (i, gi) in g.iter().enumerate() {
                 let fd = (basis(p)[i] - basis(m)[i]) / 2e-6;
                 assert!((fd - gi[d]).abs() < 1e-8);
+            }
+        }
+    }
+
+    /// `K_T` of a linear field `u = G x`: `sum_j sum_G E[i][j][F][G] u_j(G) =
+    /// sum_j G_ji int_T dphi_F/dx_j = sum_j G_ji |F| n_j(F)` (the face means of a linear
+    /// field are its face-centre values; any `G`, divergence-free or not), and the
+    /// symmetry `E[i][j][F][G] = E[j][i][G][F]`.
+    #[test]
+    fn transpose_stiffness_of_linear_fields() {
+        let h = [0.3, 0.7, 1.1];
+        let e = transpose_stiffness_entries(h);
+        let gm = [[0.3, -1.2, 0.5], [2.0, 0.7, -0.4], [-0.9, 1.1, 0.25]];
+        // face centres of the box centred at 0 and outward normals
+        let centre = |f: usize| {
+            let mut x = [0.0; 3];
+            x[f / 2] = if f % 2 == 0 { -0.5 } else { 0.5 } * h[f / 2];
+            x
+        };
+        let area = |f: usize| h[0] * h[1] * h[2] / h[f / 2];
+        let u = |j: usize, f: usize| (0..3).map(|k| gm[j][k] * centre(f)[k]).sum::<f64>();
+        for i in 0..3 {
+            for f in 0..6 {
+                let got: f64 = (0..3)
+                    .map(|j| (0..6).map(|g| e[i][j][f][g] * u(j, g)).sum::<f64>())
+                    .sum();
+                let sign = if f % 2 == 0 { -1.0 } else { 1.0 };
+                let want = gm[f / 2][i] * area(f) * sign;
+                assert!((got - want).abs() < 1e-12, "i {i} F {f}: {got} vs {want}");
+                for (j, ej) in e.iter().enumerate() {
+                    for (g, eg) in ej[i].iter().enumerate() {
+                        assert!((e[i][j][f][g] - eg[f]).abs() < 1e-14);
+                    }
+                }
             }
         }
     }

@@ -28,7 +28,9 @@
 //!   block) return an [`MgReport`]; [`StokesSolver`] returns a [`StokesReport`].
 //! * Transient Navier-Stokes ([`navier`]): [`NavierStokes::new`] (grid, [`NsConfig`],
 //!   mask of prescribed faces), fields `u`, `p`, `time`; [`NavierStokes::set_side_velocity`]
-//!   for walls, lids and inflow profiles; [`NavierStokes::set_mask`] when markers move;
+//!   for walls, lids and inflow profiles; [`NavierStokes::step_with`] for time-dependent
+//!   Dirichlet data (called at each substep's time); [`NavierStokes::set_mask`] when
+//!   markers move; [`NsConfig::viscous`] selects the [`ViscousForm`];
 //!   [`NavierStokes::step`] does one step of the selected [`TimeScheme`] (backward Euler,
 //!   Crank-Nicolson, fractional-step theta; backward Euler for `startup_steps`) by the
 //!   discrete projection with [`FaceMg`] (momentum, `alpha M_l + nu K + N(u*)`) and
@@ -38,9 +40,16 @@
 //!   (linearised about an extrapolated velocity), second order in `h` at fixed viscosity.
 //!
 //! # Known limits
-//! * The viscous term is the Laplacian form `nu K` (not the deformation-tensor form of the
-//!   seed's stress tensor); both agree for divergence-free fields with Dirichlet walls,
-//!   and differ in the meaning of the do-nothing condition.
+//! * The viscous term is the Laplacian form `nu K` by default; the deformation-tensor form
+//!   of the seed's stress tensor ([`ViscousForm::Deformation`], `nu (K + K_T)`) treats its
+//!   component coupling `K_T` by a stabilised lag (the momentum solve uses `2 nu K`), see
+//!   [`navier`]. Both agree for divergence-free fields with Dirichlet walls and differ in
+//!   the meaning of the do-nothing condition.
+//! * Steady states by large steps: backward Euler with the lagged convection oscillates or
+//!   diverges for dt >= 2 on the Re = 400 cavity (24^2, measured), and with dt = 1 the
+//!   32^2 Re = 400 cavity keeps changing by 1e-4..5e-4 per step after 500 steps; the
+//!   projection's pressure iteration itself converges at about 0.9 per step with large
+//!   steps (Stokes flow with a do-nothing side, measured).
 //! * On strongly anisotropic cells the Q1~ stencil is not exact for quadratics and the
 //!   point smoothers lose efficiency; the tests use cubic cells.
 //! * The Q1~ prolongation is stored as a sparse matrix (about 5 entries of 16 bytes per
@@ -64,6 +73,6 @@ pub mod stokes;
 pub use grid::{dofs_of_level, Boundaries, BoundaryKind, Grid, GridError, Layout};
 pub use mg_cell::{MgReport, PressureMg};
 pub use mg_face::{Cycle, FaceMg};
-pub use navier::{NavierStokes, NsConfig, StepReport, TimeScheme};
-pub use ops::{CellOperator, Convection, FaceOperator};
+pub use navier::{NavierStokes, NsConfig, StepReport, TimeScheme, ViscousForm};
+pub use ops::{CellOperator, Convection, FaceOperator, TransposeStiffness};
 pub use stokes::{body_force_load, StokesReport, StokesSolver};

@@ -237,6 +237,14 @@ impl FaceMg {
         }
     }
 
+    /// As [`FaceMg::set_operator`] with the lumped mass, `alpha M_l + nu_stiff K`, with the
+    /// Samarskij weights of a later [`FaceMg::set_convection`] computed with `nu_upwind`.
+    pub fn set_operator_split(&mut self, alpha: f64, nu_stiff: f64, nu_upwind: f64) {
+        for l in &mut self.levels {
+            l.op = FaceOperator::lumped(&l.grid, alpha, nu_stiff).with_upwind_viscosity(nu_upwind);
+        }
+    }
+
     /// Adds the linearised convection `N(w)` of the finest-level velocity `w` to the
     /// operators of all levels (keeping `alpha` and `nu` of [`FaceMg::set_operator`]); `w`
     /// reaches the coarser levels as the mean of the four fine faces of each coarse face.

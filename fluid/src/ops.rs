@@ -26,7 +26,7 @@
 //! written by exactly one task and reductions use a fixed chunking ([`dot`]), so results
 //! do not depend on the number of threads.
 
-use crate::element::{mass_entries, stiffness_entries};
+use crate::element::{mass_entries, stiffness_entries, transpose_stiffness_entries};
 use crate::grid::{BoundaryKind, Grid, Layout};
 use rayon::prelude::*;
 
@@ -229,6 +229,14 @@ impl FaceOperator {
         let v6 = grid.cell_volume() / 6.0;
         op.same.iter_mut().for_each(|s| *s += alpha * v6);
         op
+    }
+
+    /// Sets the viscosity used by the Samarskij weights of a convection added afterwards
+    /// (by default the viscosity of the stiffness part), for operators whose stiffness is
+    /// scaled for another reason (the stabilised lag of the deformation form).
+    pub fn with_upwind_viscosity(mut self, nu: f64) -> Self {
+        self.nu = nu;
+        self
     }
 
     /// Adds the linearised convection `N(w)` of the velocity `w` (replacing any earlier).
@@ -592,6 +600,55 @@ impl FaceOperator {
 struct RowSide {
     opp: usize,
     xb: [usize; 4],
+}
+
+/// The transposed-gradient part `K_T` of the deformation-tensor viscous term:
+/// `2 nu int D(u) : D(v) = nu (K u, v) + nu (K_T u, v)` with `(K_T u)_i(F) = sum_T sum_j
+/// int_T du_j/dx_i dphi_F/dx_j` (element matrices of
+/// [`crate::element::transpose_stiffness_entries`]). It couples the three components.
+/// For a smooth divergence-free field with Dirichlet walls it is `-grad div u = 0` in the
+/// continuous weak form; for the nonconforming Q1~ it is not zero (the elementwise
+/// integration by parts leaves face jumps), and at a do-nothing side it changes the natural
+/// condition from `nu du/dn - p n = 0` to `nu (grad u + grad u^T) n - p n = 0`.
+#[derive(Debug, Clone)]
+pub struct TransposeStiffness {
+    layout: Layout,
+    e: [[[[f64; 6]; 6]; 3]; 3],
+}
+
+impl TransposeStiffness {
+    /// `K_T` of `grid`.
+    pub fn new(grid: &Grid) -> Self {
+        TransposeStiffness {
+            layout: grid.layout(),
+            e: transpose_stiffness_entries(grid.h()),
+        }
+    }
+
+    /// `y += s K_T u` (all faces, masked or not). Serial loop over the cells.
+    pub fn apply_add(&self, s: f64, u: [&[f64]; 3], y: [&mut [f64]; 3]) {
+        let lay = &self.layout;
+        let mut y = y;
+        for c in 0..lay.num_cells() {
+            let cc = lay.cell_coords(c);
+            let mut faces = [0usize; 6];
+            for a in 0..3 {
+                faces[2 * a] = lay.face(a, cc);
+                faces[2 * a + 1] = lay.face(a, lay.upper(a, cc));
+            }
+            let local = u.map(|uj| faces.map(|f| uj[f]));
+            for (i, yi) in y.iter_mut().enumerate() {
+                for (f, &fi) in faces.iter().enumerate() {
+                    let mut acc = 0.0;
+                    for (j, lj) in local.iter().enumerate() {
+                        let row = &self.e[i][j][f];
+                        acc += row.iter().zip(lj).map(|(e, v)| e * v).sum::<f64>();
+                    }
+                    yi[fi] += s * acc;
+                }
+            }
+        }
+    }
 }
 
 /// Lumped Q1~ mass of every face: `V/6` per adjacent cell (row sums of the mass matrix).
