@@ -5,10 +5,10 @@ use std::path::Path;
 
 use grainflow_components::{FluidFlow, FluidStats};
 use grainflow_fluid::{
-    Boundaries, BoundaryKind, Grid, GridError, NavierStokes, NsConfig, TimeScheme,
+    Boundaries, BoundaryKind, Grid, GridError, NavierStokes, NsConfig, TimeScheme, ViscousForm,
 };
 
-use crate::scene::{Fluid, FluidBoundary, FluidScheme, InflowProfile, SceneError};
+use crate::scene::{Fluid, FluidBoundary, FluidScheme, FluidViscous, InflowProfile, SceneError};
 
 /// Coarse cells of the fluid box: `cells`, or the box divided by `cell_size`.
 pub fn coarse_cells(f: &Fluid) -> [usize; 3] {
@@ -38,9 +38,8 @@ pub fn fluid_grid(f: &Fluid, path: &Path) -> Result<Option<Grid>, SceneError> {
         return Ok(None);
     }
     let (min, max) = (f.min.expect("validated"), f.max.expect("validated"));
-    Grid::new(min, max, coarse_cells(f), f.level, boundary_kinds(f))
-        .map(Some)
-        .map_err(|e| SceneError {
+    let grid = Grid::new(min, max, coarse_cells(f), f.level, boundary_kinds(f)).map_err(|e| {
+        SceneError {
             file: path.to_path_buf(),
             field: match e {
                 GridError::EmptyBox { .. } => "fluid.max",
@@ -50,7 +49,50 @@ pub fn fluid_grid(f: &Fluid, path: &Path) -> Result<Option<Grid>, SceneError> {
             }
             .into(),
             message: e.to_string(),
-        })
+        }
+    })?;
+    let (cfl, limit) = (cfl_number(f, &grid), cfl_limit(f.scheme));
+    if cfl > limit {
+        return Err(SceneError {
+            file: path.to_path_buf(),
+            field: "fluid.dt".into(),
+            message: format!(
+                "the CFL number U dt / h = {cfl:.3} (U = {:.3e}, h = {:.3e} at level {}) exceeds \
+                 {limit} for the {:?} scheme; expected dt <= {:.3e}",
+                boundary_speed(f),
+                grid.h().into_iter().fold(f64::INFINITY, f64::min),
+                grid.level,
+                f.scheme,
+                limit * f.dt.unwrap_or_default() / cfl
+            ),
+        });
+    }
+    Ok(Some(grid))
+}
+
+/// Largest CFL number `U dt / h` accepted for each scheme (U the largest boundary speed,
+/// h the smallest cell edge of the run's level). The schemes are implicit, but the
+/// convection is linearised about a velocity extrapolated from the previous substeps (one
+/// Picard step per substep), and Crank-Nicolson does not damp stiff modes: beyond these
+/// numbers the lid-driven cavity (16^2 cells, Re = 100 and 400, up to 100 steps,
+/// measured with `grainflow-fluid`) no longer settles and flips from step to step
+/// (largest change per step 0.3-1 of the lid speed): Crank-Nicolson settles at
+/// U dt/h = 2 and flips at 4 (Re = 100); fractional-step theta settles at 8 and flips at
+/// 16 (both Re); backward Euler settles up to 32 on 16^2 and flips at 48 on 24^2
+/// (Re = 400). A scene with `dt` beyond its scheme's number exits 2 naming `fluid.dt`;
+/// scenes without a moving boundary (U = 0) have no limit.
+pub fn cfl_limit(scheme: FluidScheme) -> f64 {
+    match scheme {
+        FluidScheme::CrankNicolson => 2.0,
+        FluidScheme::FractionalStep => 8.0,
+        FluidScheme::BackwardEuler => 32.0,
+    }
+}
+
+/// The CFL number `U dt / h` of the run's level (see [`cfl_limit`]).
+pub fn cfl_number(f: &Fluid, grid: &Grid) -> f64 {
+    let h = grid.h().into_iter().fold(f64::INFINITY, f64::min);
+    boundary_speed(f) * f.dt.unwrap_or_default() / h
 }
 
 /// Largest speed prescribed on the boundary (walls, lids, inflow peaks).
@@ -71,9 +113,9 @@ pub fn boundary_speed(f: &Fluid) -> f64 {
 /// The `grainflow check` block of a fluid grid: box, viscosity, boundaries, the degrees of
 /// freedom of levels 1 to max(5, level) (3 x faces + cells; a periodic pair of sides
 /// shares its faces), and the time-step numbers
-/// of the run's level: the CFL number U dt / h with the largest boundary speed U, and the
-/// viscous number nu dt / h^2 (the viscous term is implicit, so it is reported, not
-/// limited).
+/// of the run's level: the CFL number U dt / h with the largest boundary speed U and its
+/// limit for the scheme ([`cfl_limit`]), and the viscous number nu dt / h^2 (the viscous
+/// term is implicit, so it is reported, not limited).
 pub fn check_report(f: &Fluid, grid: &Grid) -> String {
     let mut out = String::new();
     let coarse = grid.coarse;
@@ -88,8 +130,9 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
     );
     let _ = writeln!(
         out,
-        "  scheme {:?}, dt_F = {:e} s",
+        "  scheme {:?}, viscous term {:?}, dt_F = {:e} s",
         f.scheme,
+        f.viscous,
         f.dt.unwrap_or_default()
     );
     for side in f.boundaries.sides().iter().flatten() {
@@ -134,12 +177,21 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
     }
     let h = grid.h().into_iter().fold(f64::INFINITY, f64::min);
     let dt = f.dt.unwrap_or_default();
+    let u = boundary_speed(f);
+    let nu = f.viscosity.unwrap_or_default();
+    let limit = cfl_limit(f.scheme);
     let _ = writeln!(
         out,
-        "  time step: CFL U dt/h = {:.3} (U = {:.3e}, h = {h:.3e}), viscous nu dt/h^2 = {:.3}",
-        boundary_speed(f) * dt / h,
-        boundary_speed(f),
-        f.viscosity.unwrap_or_default() * dt / (h * h)
+        "  time step: CFL U dt/h = {:.3} (U = {u:.3e}, h = {h:.3e}; limit {limit} for {:?}: dt <= {}), viscous nu dt/h^2 = {:.3} (implicit: reported, not limited; dt at nu dt/h^2 = 1/2: {:.3e} s)",
+        cfl_number(f, grid),
+        f.scheme,
+        if u > 0.0 {
+            format!("{:.3e} s", limit * h / u)
+        } else {
+            "any".to_string()
+        },
+        nu * dt / (h * h),
+        0.5 * h * h / nu
     );
     out
 }
@@ -155,6 +207,10 @@ pub fn fluid_flow(f: &Fluid, grid: &Grid) -> FluidFlow {
         FluidScheme::FractionalStep => TimeScheme::FractionalStepTheta,
         FluidScheme::CrankNicolson => TimeScheme::CrankNicolson,
         FluidScheme::BackwardEuler => TimeScheme::BackwardEuler,
+    };
+    cfg.viscous = match f.viscous {
+        FluidViscous::Laplacian => ViscousForm::Laplacian,
+        FluidViscous::Deformation => ViscousForm::Deformation,
     };
     let mut solver = NavierStokes::new(grid, cfg, grid.dirichlet_mask());
     let (lo, hi) = (grid.lower, grid.upper);

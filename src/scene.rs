@@ -128,6 +128,9 @@ pub struct Fluid {
     pub dt: Option<f64>,
     #[serde(default)]
     pub scheme: FluidScheme,
+    /// Form of the viscous term.
+    #[serde(default)]
+    pub viscous: FluidViscous,
     #[serde(default)]
     pub boundaries: FluidBoundaries,
 }
@@ -144,6 +147,16 @@ pub enum FluidScheme {
     FractionalStep,
     CrankNicolson,
     BackwardEuler,
+}
+
+/// Form of the viscous term of the flow: `-nu Laplace u` or the seed's stress tensor
+/// `-div(2 nu D(u))`; they differ at do-nothing (outflow) sides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FluidViscous {
+    #[default]
+    Laplacian,
+    Deformation,
 }
 
 /// Boundary conditions of the six sides of the fluid box (default: no-slip walls).

@@ -105,6 +105,17 @@ fn bad_fluid_input_exits_2_naming_the_field() {
             edit("viscosity = 0.01\n", ""),
             "fluid.viscosity",
         ),
+        (
+            "unknown_viscous_form.toml",
+            edit("scheme = ", "viscous = \"stress\"\nscheme = "),
+            "fluid.viscous",
+        ),
+        (
+            // U dt / h = 1 x 2.0 / 0.2 = 10 > 8, the fractional-step limit
+            "cfl_too_large.toml",
+            edit("dt = 1.0e-3\nscheme", "dt = 2.0\nscheme"),
+            "fluid.dt",
+        ),
     ];
     for (name, text, field) in &cases {
         let path = write_scene(dir.path(), name, text);
@@ -168,4 +179,52 @@ fn fluid_run_reports_its_solver() {
     );
     let xdmf = std::fs::read_to_string(out.join("fluid.xdmf")).expect("fluid.xdmf");
     assert!(xdmf.contains("3DCoRectMesh") && xdmf.contains("fluid.h5:/step_00000010/pressure"));
+}
+
+/// `fluid.viscous` selects the viscous term ("laplacian", the default, or "deformation",
+/// the seed's stress tensor); `grainflow check` names it and reports the CFL number with
+/// its limit for the scheme and the viscous number; the CFL limit is enforced per scheme
+/// (dt = 1.0 on level 2 of the channel is U dt / h = 5: refused for Crank-Nicolson, limit
+/// 2, accepted for fractional-step theta, limit 8); a deformation-form run of the channel
+/// (level 1, 3 steps) succeeds.
+#[test]
+fn viscous_form_and_time_step_limits() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scene = write_scene(dir.path(), "channel.toml", &channel());
+    let s = scene.to_str().unwrap();
+    let (code, stdout, stderr) = run_cli(&["check", s]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("viscous term Laplacian"), "{stdout}");
+    assert!(stdout.contains("CFL U dt/h = 0.005"), "{stdout}");
+    assert!(stdout.contains("limit 8 for FractionalStep"), "{stdout}");
+    let (code, stdout, stderr) = run_cli(&["check", s, "--set", "fluid.viscous=deformation"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("viscous term Deformation"), "{stdout}");
+    // level 2: h = 0.2, U = 1 (inflow peak): dt = 1.0 gives U dt / h = 5
+    let (code, _, stderr) = run_cli(&["check", s, "--set", "fluid.dt=1.0"]);
+    assert_eq!(code, 0, "fractional step at CFL 5: {stderr}");
+    let (code, _, stderr) = run_cli(&[
+        "check",
+        s,
+        "--set",
+        "fluid.dt=1.0",
+        "--set",
+        "fluid.scheme=crank_nicolson",
+    ]);
+    assert_eq!(code, 2, "Crank-Nicolson at CFL 5: {stderr}");
+    assert!(stderr.contains("`fluid.dt`"), "{stderr}");
+    let out = dir.path().join("out");
+    let (code, stdout, stderr) = run_cli(&[
+        "run",
+        s,
+        "--out",
+        out.to_str().unwrap(),
+        "--steps",
+        "3",
+        "--set",
+        "fluid.level=1",
+        "--set",
+        "fluid.viscous=deformation",
+    ]);
+    assert_eq!(code, 0, "stdout:\n{stdout}\nstderr:\n{stderr}");
 }
