@@ -45,11 +45,15 @@
 //!   component coupling `K_T` by a stabilised lag (the momentum solve uses `2 nu K`), see
 //!   [`navier`]. Both agree for divergence-free fields with Dirichlet walls and differ in
 //!   the meaning of the do-nothing condition.
-//! * Steady states by large steps: backward Euler with the lagged convection oscillates or
-//!   diverges for dt >= 2 on the Re = 400 cavity (24^2, measured), and with dt = 1 the
-//!   32^2 Re = 400 cavity keeps changing by 1e-4..5e-4 per step after 500 steps; the
-//!   projection's pressure iteration itself converges at about 0.9 per step with large
-//!   steps (Stokes flow with a do-nothing side, measured).
+//! * Steady states by large steps: the convection is linearised about an extrapolated
+//!   velocity (one Picard step per substep), so large CFL numbers flip-flop (cavity,
+//!   measured: Crank-Nicolson beyond U dt/h = 2, fractional-step theta beyond 8, backward
+//!   Euler beyond 32); fractional-step theta at U dt/h = 8 reaches the Re = 400 cavity's
+//!   steady state in ~170 steps. The projection's pressure iteration converges at about
+//!   0.9 per step with large steps (Stokes flow with a do-nothing side, measured).
+//! * Convection at cell Peclet numbers >> 1: the full Samarskij upwinding adds numerical
+//!   diffusion of several times `nu` (Re = 400 cavity on 32^2: u off Ghia by 0.11);
+//!   [`NsConfig::upwind`] = 0.1 (FEATFLOW's UPSAM) brings it to 0.044; 0.03 diverged.
 //! * On strongly anisotropic cells the Q1~ stencil is not exact for quadratics and the
 //!   point smoothers lose efficiency; the tests use cubic cells.
 //! * The Q1~ prolongation is stored as a sparse matrix (about 5 entries of 16 bytes per
