@@ -130,9 +130,10 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
     );
     let _ = writeln!(
         out,
-        "  scheme {:?}, viscous term {:?}, dt_F = {:e} s",
+        "  scheme {:?}, viscous term {:?}, upwind scale {}, dt_F = {:e} s",
         f.scheme,
         f.viscous,
+        f.upwind,
         f.dt.unwrap_or_default()
     );
     for side in f.boundaries.sides().iter().flatten() {
@@ -208,6 +209,7 @@ pub fn fluid_flow(f: &Fluid, grid: &Grid) -> FluidFlow {
         FluidScheme::CrankNicolson => TimeScheme::CrankNicolson,
         FluidScheme::BackwardEuler => TimeScheme::BackwardEuler,
     };
+    cfg.upwind = f.upwind;
     cfg.viscous = match f.viscous {
         FluidViscous::Laplacian => ViscousForm::Laplacian,
         FluidViscous::Deformation => ViscousForm::Deformation,

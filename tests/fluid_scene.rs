@@ -111,6 +111,11 @@ fn bad_fluid_input_exits_2_naming_the_field() {
             "fluid.viscous",
         ),
         (
+            "zero_upwind.toml",
+            edit("scheme = ", "upwind = 0.0\nscheme = "),
+            "fluid.upwind",
+        ),
+        (
             // U dt / h = 1 x 2.0 / 0.2 = 10 > 8, the fractional-step limit
             "cfl_too_large.toml",
             edit("dt = 1.0e-3\nscheme", "dt = 2.0\nscheme"),
@@ -182,7 +187,8 @@ fn fluid_run_reports_its_solver() {
 }
 
 /// `fluid.viscous` selects the viscous term ("laplacian", the default, or "deformation",
-/// the seed's stress tensor); `grainflow check` names it and reports the CFL number with
+/// the seed's stress tensor) and `fluid.upwind` the upwind scale; `grainflow check` names
+/// them and reports the CFL number with
 /// its limit for the scheme and the viscous number; the CFL limit is enforced per scheme
 /// (dt = 1.0 on level 2 of the channel is U dt / h = 5: refused for Crank-Nicolson, limit
 /// 2, accepted for fractional-step theta, limit 8); a deformation-form run of the channel
@@ -194,7 +200,13 @@ fn viscous_form_and_time_step_limits() {
     let s = scene.to_str().unwrap();
     let (code, stdout, stderr) = run_cli(&["check", s]);
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.contains("viscous term Laplacian"), "{stdout}");
+    assert!(
+        stdout.contains("viscous term Laplacian, upwind scale 1,"),
+        "{stdout}"
+    );
+    let (code, stdout, stderr) = run_cli(&["check", s, "--set", "fluid.upwind=0.1"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("upwind scale 0.1,"), "{stdout}");
     assert!(stdout.contains("CFL U dt/h = 0.005"), "{stdout}");
     assert!(stdout.contains("limit 8 for FractionalStep"), "{stdout}");
     let (code, stdout, stderr) = run_cli(&["check", s, "--set", "fluid.viscous=deformation"]);
