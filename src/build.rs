@@ -7,7 +7,7 @@ use grainflow_components::*;
 use grainflow_systems::inflow::next_f64;
 use grainflow_systems::walls::{wall_contains, wall_distance};
 
-use crate::scene::{Axis, RegionSpec, Scene, SceneError, SurfaceSpec, WallSpec};
+use crate::scene::{Axis, ForceMethodName, RegionSpec, Scene, SceneError, SurfaceSpec, WallSpec};
 
 /// The pair table: E* from both materials, damping laws averaged when both materials use
 /// the same law.
@@ -442,19 +442,15 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             });
         }
         if laws.has_torques() {
-            let kind = *world
-                .get_resource::<IntegratorKind>()
-                .expect("contact laws need particles");
-            let mut rotation = Rotation {
-                aux: vec![Default::default(); grainflow_systems::rotation::aux_columns(kind)],
-                ..Default::default()
-            };
-            rotation.resize_rows(particles.len());
-            world.insert_resource(rotation);
+            insert_rotation(&mut world, particles.len());
         }
         world.insert_resource(laws);
     }
-    if let Some(flow) = flow {
+    if let Some(mut flow) = flow {
+        if let Some((n_s, _)) = scene.subcycling {
+            flow.solver.set_project_markers(true);
+            insert_coupling(&mut world, scene, &flow, n_s, particles.len());
+        }
         world.insert_resource(flow);
     }
     if scene.spheres.iter().any(|s| s.fixed) {
@@ -515,6 +511,48 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
     }
     world.insert_resource(particles);
     Ok(world)
+}
+
+/// The coupling data of a scene with a fluid grid and particles: parameters, cell
+/// markers, held hydrodynamic forces, and rotation (hydrodynamic torques turn the
+/// particles even when no contact law does).
+fn insert_coupling(world: &mut World, scene: &Scene, flow: &FluidFlow, n_s: u32, rows: usize) {
+    let spec = scene.coupling.clone().unwrap_or_default();
+    let fluid = scene.fluid.as_ref().expect("coupled scene has a fluid");
+    world.insert_resource(Coupling {
+        fluid_density: fluid.density,
+        viscosity: fluid.viscosity.expect("validated"),
+        alpha: spec.alpha,
+        method: match spec.force {
+            ForceMethodName::SurfacePoints => ForceMethod::SurfacePoints,
+            ForceMethodName::VolumeIntegral => ForceMethod::VolumeIntegral,
+        },
+        rule: grainflow_systems::lebedev::lebedev_rule(spec.points).expect("validated rule"),
+        subcycles: n_s,
+    });
+    world.insert_resource(CellMarkers {
+        box_mask: flow.solver.mask().to_vec(),
+        ..Default::default()
+    });
+    let mut hydro = HydroForces::default();
+    hydro.resize_rows(rows);
+    world.insert_resource(hydro);
+    if !world.contains_resource::<Rotation>() {
+        insert_rotation(world, rows);
+    }
+}
+
+/// Rotational state for `rows` particles, with the integrator's extra columns.
+fn insert_rotation(world: &mut World, rows: usize) {
+    let kind = *world
+        .get_resource::<IntegratorKind>()
+        .expect("rotation needs particles and an integrator");
+    let mut rotation = Rotation {
+        aux: vec![Default::default(); grainflow_systems::rotation::aux_columns(kind)],
+        ..Default::default()
+    };
+    rotation.resize_rows(rows);
+    world.insert_resource(rotation);
 }
 
 /// The scene field a particle (by load order) came from, for error messages.

@@ -130,7 +130,20 @@ fn check(args: CheckArgs) -> ExitCode {
     }
     if let Some(f) = &scene.fluid {
         match crate::fluid::fluid_grid(f, &args.scene) {
-            Ok(Some(grid)) => out.push_str(&crate::fluid::check_report(f, &grid)),
+            Ok(Some(grid)) => {
+                out.push_str(&crate::fluid::check_report(f, &grid));
+                if let Some(c) = sim.world.get_resource::<grainflow_components::Coupling>() {
+                    let (n_s, dt_d) = scene.subcycling.expect("coupled scene");
+                    let _ = writeln!(
+                        out,
+                        "coupling   force {:?} ({} Lebedev points), alpha = {}; subcycles n_s = int(dt_F / dt_D) + 1 = {n_s} (dt_D = {dt_d:e} s asked, dt_D' = dt_F / n_s = {:e} s)",
+                        c.method,
+                        c.rule.weight.len(),
+                        c.alpha,
+                        scene.simulation.dt
+                    );
+                }
+            }
             Ok(None) => {
                 let _ = writeln!(
                     out,

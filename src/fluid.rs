@@ -204,6 +204,7 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
 pub fn fluid_flow(f: &Fluid, grid: &Grid) -> FluidFlow {
     let dt = f.dt.expect("validated");
     let mut cfg = NsConfig::new(f.viscosity.expect("validated"), dt);
+    cfg.body_force = f.body_force;
     cfg.scheme = match f.scheme {
         FluidScheme::FractionalStep => TimeScheme::FractionalStepTheta,
         FluidScheme::CrankNicolson => TimeScheme::CrankNicolson,

@@ -4,6 +4,7 @@ pub mod build;
 pub mod cli;
 pub mod fluid;
 pub mod lammps;
+pub mod observables;
 pub mod output;
 pub mod plot;
 pub mod run;

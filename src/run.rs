@@ -12,20 +12,32 @@ use grainflow_components::{
 use grainflow_systems::schedule::Slot;
 use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
 
+use crate::observables::{observables, record_coupling, CouplingLog};
 use crate::output::{write_particles, ParticleOutput};
 use crate::scene::{Scene, SceneError};
 use crate::stability::{self, StepEstimate};
 
-/// Writers registered by the application into the `Output` set.
-const OUTPUT_ENTRIES: &[SystemEntry] = &[SystemEntry {
-    name: "write_particles",
-    set: StepSet::Output,
-    phase: Phase::Step,
-    wanted: |w| w.contains_resource::<ParticleOutput>(),
-    add: |s, slot: Slot| {
-        s.add_systems(write_particles.in_set(slot));
+/// Writers and recorders registered by the application into the `Output` set.
+const OUTPUT_ENTRIES: &[SystemEntry] = &[
+    SystemEntry {
+        name: "record_coupling",
+        set: StepSet::Output,
+        phase: Phase::Step,
+        wanted: |w| w.contains_resource::<CouplingLog>(),
+        add: |s, slot: Slot| {
+            s.add_systems(record_coupling.in_set(slot));
+        },
     },
-}];
+    SystemEntry {
+        name: "write_particles",
+        set: StepSet::Output,
+        phase: Phase::Step,
+        wanted: |w| w.contains_resource::<ParticleOutput>(),
+        add: |s, slot: Slot| {
+            s.add_systems(write_particles.in_set(slot));
+        },
+    },
+];
 
 pub struct Simulation {
     pub scene: Scene,
@@ -79,6 +91,9 @@ impl Simulation {
                 message: m,
             })?;
             world.insert_resource(out);
+        }
+        if world.contains_resource::<grainflow_components::Coupling>() {
+            world.insert_resource(CouplingLog::default());
         }
         let (step_schedule, step_systems) = build_schedule(&world, Phase::Step, OUTPUT_ENTRIES);
         let (startup_schedule, _) = build_schedule(&world, Phase::Startup, &[]);
@@ -351,7 +366,7 @@ impl Simulation {
             },
             "schedule": self.step_systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
             "fluid": self.fluid_summary(),
-            "observables": {},
+            "observables": observables(&self.world, &self.scene),
         })
     }
 }

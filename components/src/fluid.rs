@@ -15,6 +15,14 @@ pub struct FluidFlow {
     pub stats: FluidStats,
 }
 
+impl FluidFlow {
+    /// Whether the DEM step starting at `time` (length `dt`) starts a fluid step: the
+    /// fluid time is reached within half a DEM step.
+    pub fn is_due(&self, time: f64, dt: f64) -> bool {
+        time + 0.5 * dt >= self.next_time
+    }
+}
+
 /// Sums over the fluid steps of a run, for the run report.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FluidStats {

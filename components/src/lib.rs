@@ -8,6 +8,7 @@
 
 pub mod clock;
 pub mod contact_law;
+pub mod coupling;
 pub mod fluid;
 pub mod health;
 pub mod inflow;
@@ -23,6 +24,7 @@ pub use contact_law::{
     AdhesionLaw, ContactLaw, ContactLaws, FrictionLaw, HistoryLayout, RollingLaw,
     TangentialStiffness, WallHistory,
 };
+pub use coupling::{CellMarkers, Coupling, ForceMethod, HydroForces, SphereRule};
 pub use fluid::{FluidFlow, FluidStats};
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};

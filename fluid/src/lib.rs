@@ -72,6 +72,7 @@ pub mod mg_cell;
 pub mod mg_face;
 pub mod navier;
 pub mod ops;
+pub mod sample;
 pub mod stokes;
 
 pub use grid::{dofs_of_level, Boundaries, BoundaryKind, Grid, GridError, Layout};

@@ -156,6 +156,9 @@ pub struct NsConfig {
     /// [`crate::ops::Convection`]; smaller values weight the interface values closer to
     /// the central (second-order) average and add less numerical diffusion.
     pub upwind: f64,
+    /// Constant body force per unit mass `f` (a driving pressure gradient of a periodic
+    /// flow): the momentum equation gains `M_l f`.
+    pub body_force: [f64; 3],
 }
 
 impl NsConfig {
@@ -178,6 +181,7 @@ impl NsConfig {
             pressure_rtol: 1e-8,
             max_cycles: 50,
             upwind: 1.0,
+            body_force: [0.0; 3],
         }
     }
 }
@@ -234,6 +238,10 @@ pub struct NavierStokes {
     grid: Grid,
     cfg: NsConfig,
     mask: Vec<bool>,
+    /// Faces prescribed by the box sides alone ([`Grid::dirichlet_mask`]).
+    box_mask: Vec<bool>,
+    /// See [`NavierStokes::set_project_markers`].
+    project_markers: bool,
     /// Lumped mass per face.
     ml: Vec<f64>,
     mg: FaceMg,
@@ -272,6 +280,8 @@ impl NavierStokes {
             kt: (cfg.viscous == ViscousForm::Deformation).then(|| TransposeStiffness::new(grid)),
             cfg,
             mask,
+            box_mask: grid.dirichlet_mask(),
+            project_markers: false,
             ml: lumped_mass(grid),
             u: [0, 1, 2].map(|_| vec![0.0; nf]),
             p: vec![0.0; grid.num_cells()],
@@ -289,6 +299,20 @@ impl NavierStokes {
     /// The faces with prescribed velocity.
     pub fn mask(&self) -> &[bool] {
         &self.mask
+    }
+
+    /// Whether the projection also corrects the faces of marked cells (default: no).
+    ///
+    /// The pressure Schur complement `B^T M_l^{-1} B` couples every interior face, so
+    /// the projected velocity is divergence-free only if every interior face takes the
+    /// correction. With this set, marker faces are projected like free faces and hold
+    /// their prescribed (rigid-body) velocity through the momentum solve only: the
+    /// fictitious boundary is then met up to `k M_l^{-1} B q`, which vanishes at a steady
+    /// state (the pressure increment `q` does), and mass is conserved next to the
+    /// particles. The coupling sets it and imposes the rigid velocity again before every
+    /// step.
+    pub fn set_project_markers(&mut self, on: bool) {
+        self.project_markers = on;
     }
 
     /// Replaces the mask of prescribed faces (e.g. after particles moved); rebuilds the
@@ -403,6 +427,14 @@ impl NavierStokes {
                 kt.apply_add(-we * nu, [&self.u[0], &self.u[1], &self.u[2]], [b0, b1, b2]);
             }
         }
+        // a constant body force (acceleration) f: + k_s M_l f
+        if self.cfg.body_force != [0.0; 3] {
+            for (rc, f) in base.iter_mut().zip(self.cfg.body_force) {
+                rc.iter_mut()
+                    .zip(&self.ml)
+                    .for_each(|(r, m)| *r += ks * m * f);
+            }
+        }
         // the convecting velocity u*
         let ustar: [Vec<f64>; 3] = match (&self.prev, extrapolate) {
             (Some((up, kp)), true) => {
@@ -474,8 +506,15 @@ impl NavierStokes {
             let [b0, b1, b2] = &mut bq;
             add_gradient(g, &q, 1.0, [b0, b1, b2]);
         }
+        // Box-side Dirichlet faces are never corrected; marker faces only when
+        // `project_markers` is set (see [`NavierStokes::set_project_markers`]).
+        let fixed_mask = if self.project_markers {
+            &self.box_mask
+        } else {
+            &self.mask
+        };
         for (uc, bc) in self.u.iter_mut().zip(&bq) {
-            for (((u, b), m), &fixed) in uc.iter_mut().zip(bc).zip(&self.ml).zip(&self.mask) {
+            for (((u, b), m), &fixed) in uc.iter_mut().zip(bc).zip(&self.ml).zip(fixed_mask) {
                 if !fixed {
                     *u -= ks * b / m;
                 }

@@ -10,12 +10,25 @@ pub fn has_fluid(w: &World) -> bool {
 }
 
 pub fn multigrid_fluid(clock: Res<SimClock>, mut flow: ResMut<FluidFlow>) {
-    // Half a DEM step of slack: the fluid step starts at the DEM step nearest its time.
-    if clock.time + 0.5 * clock.dt < flow.next_time {
+    if !flow.is_due(clock.time, clock.dt) {
         return;
     }
     let _span = tracing::info_span!("multigrid_fluid").entered();
     let report = flow.solver.step();
     flow.stats.add(&report);
     flow.next_time += flow.dt;
+}
+
+/// DEM subcycles per fluid step (seed, "Coupling of FEM-DEM on the time level", after
+/// Feng & Owen 2007): `n_s = int(dt_F / dt_D) + 1`, run with `dt_D' = dt_F / n_s`. A ratio
+/// within 1e-9 of a whole number counts as that number (1e-4 / 1e-5 gives 11 subcycles,
+/// not 10 or 11 by rounding luck).
+pub fn subcycles(dt_fluid: f64, dt_dem: f64) -> u32 {
+    let ratio = dt_fluid / dt_dem;
+    let whole = if (ratio - ratio.round()).abs() <= 1e-9 * ratio {
+        ratio.round()
+    } else {
+        ratio.floor()
+    };
+    whole as u32 + 1
 }

@@ -8,13 +8,16 @@
 //! integer reduction vectorises where `f64::max` (with its NaN rule) would not.
 
 pub mod clamp;
+pub mod fictitious;
 pub mod fluid;
 pub mod friction;
 pub mod gear;
 pub mod granular;
 pub mod hertz;
+pub mod hydrodynamic;
 pub mod inflow;
 pub mod jkr;
+pub mod lebedev;
 pub mod monitor;
 pub mod neighbour_list;
 pub mod real;

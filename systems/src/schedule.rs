@@ -12,12 +12,19 @@
 //! 6. `Contact`: contact forces: Hertz normal + damping between particles and with walls
 //!    (`hertz_contact`), or, when some material pair has friction, rolling resistance or
 //!    adhesion, the same plus those models with per-contact history (`granular_contact`)
-//! 7. `HydrodynamicSampling`, `VelocityBlending` (the coupling: reserved, no system yet),
-//!    `MultigridFluid`: a Navier-Stokes step whenever the fluid time is reached
-//! 8. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation under
-//!    contact torques; the clock; kinematic (fixed) particles put back on their path
-//! 9. `Monitor`: stability checks (overlap, non-finite state), kinetic energy
-//! 10. `Output`: writers (added by the application)
+//! 7. `VelocityBlending`: when a fluid step is due, the particles' cell markers, their
+//!    rigid-body velocity on the faces inside them and the smooth transition around them
+//!    (`velocity_blending`)
+//! 8. `MultigridFluid`: a Navier-Stokes step whenever the fluid time is reached (every
+//!    n_s DEM steps: the DEM subcycles inside a fluid step)
+//! 9. `HydrodynamicSampling`: after a fluid step, the hydrodynamic force and torque of
+//!    every particle from the new flow; in every subcycle they are added, held constant,
+//!    to the contact forces (`hydrodynamic_sampling`)
+//! 10. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation
+//!     under contact torques; the clock; kinematic (fixed) particles put back on their
+//!     path
+//! 11. `Monitor`: stability checks (overlap, non-finite state), kinetic energy
+//! 12. `Output`: writers (added by the application)
 //!
 //! A scene gets only the systems whose `wanted` test passes on its world, so a scene
 //! without inflow, walls or Gear neither runs nor allocates their systems. Adding a model
@@ -27,14 +34,15 @@ use bevy_ecs::schedule::SingleThreadedExecutor;
 use grainflow_components::{GearState, IntegratorKind, VerletState, Walls};
 
 use crate::clamp::has_clamped;
+use crate::fictitious::has_coupling;
 use crate::fluid::has_fluid;
 use crate::granular::has_contact_laws;
 use crate::rotation::has_rotation;
 use crate::{
-    clamp, fluid, gear, granular, hertz, inflow, monitor, neighbour_list, rotation, rows, verlet,
-    walls,
+    clamp, fictitious, fluid, gear, granular, hertz, hydrodynamic, inflow, monitor, neighbour_list,
+    rotation, rows, verlet, walls,
 };
-use grainflow_components::{Clamped, Rotation};
+use grainflow_components::{Clamped, HydroForces, Rotation};
 
 /// The ordered phases of a DEM step.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -45,9 +53,9 @@ pub enum StepSet {
     NeighbourList,
     Reorder,
     Contact,
-    HydrodynamicSampling,
     VelocityBlending,
     MultigridFluid,
+    HydrodynamicSampling,
     Correct,
     Monitor,
     Output,
@@ -61,9 +69,9 @@ pub const STEP_ORDER: [StepSet; 12] = [
     StepSet::NeighbourList,
     StepSet::Reorder,
     StepSet::Contact,
-    StepSet::HydrodynamicSampling,
     StepSet::VelocityBlending,
     StepSet::MultigridFluid,
+    StepSet::HydrodynamicSampling,
     StepSet::Correct,
     StepSet::Monitor,
     StepSet::Output,
@@ -184,6 +192,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "sync_rows<HydroForces>",
+        set: StepSet::SyncRows,
+        phase: Phase::Both,
+        wanted: has_coupling,
+        add: |s, set| {
+            s.add_systems(rows::sync_rows::<HydroForces>.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "gear_predict",
         set: StepSet::Predict,
         phase: Phase::Step,
@@ -292,6 +309,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "permute_rows<HydroForces>",
+        set: StepSet::Reorder,
+        phase: Phase::Both,
+        wanted: has_coupling,
+        add: |s, set| {
+            s.add_systems(rows::permute_rows::<HydroForces>.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "hertz_contact",
         set: StepSet::Contact,
         phase: Phase::Both,
@@ -310,12 +336,30 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "velocity_blending",
+        set: StepSet::VelocityBlending,
+        phase: Phase::Step,
+        wanted: has_coupling,
+        add: |s, set| {
+            s.add_systems(fictitious::velocity_blending.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "multigrid_fluid",
         set: StepSet::MultigridFluid,
         phase: Phase::Step,
         wanted: has_fluid,
         add: |s, set| {
             s.add_systems(fluid::multigrid_fluid.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "hydrodynamic_sampling",
+        set: StepSet::HydrodynamicSampling,
+        phase: Phase::Step,
+        wanted: has_coupling,
+        add: |s, set| {
+            s.add_systems(hydrodynamic::hydrodynamic_sampling.in_set(set));
         },
     },
     SystemEntry {

@@ -1,0 +1,81 @@
+//! ECS data of the fluid-particle coupling (seed, "Coupling of the phases"): the
+//! coupling parameters, the level-set cell markers of the fictitious domain, and the
+//! hydrodynamic force and torque of every particle, held constant over the DEM subcycles
+//! of a fluid step. Present only when a scene has both a fluid grid and particles.
+use bevy_ecs::prelude::Resource;
+
+use crate::particles::permute_column;
+use crate::{Columns, PerParticle};
+
+/// How the hydrodynamic force on a particle is computed from the flow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ForceMethod {
+    /// Lagrangian force points on the sphere's surface with Lebedev-Laikov weights
+    /// (seed: F = J sum_i w_i t_i, J = 4 pi r^2, t = <sigma> n).
+    SurfacePoints,
+    /// The volume integral of the fictitious boundary method, F = -int sigma . grad(alpha)
+    /// over the cells cut by the particle (Wan & Turek 2006).
+    VolumeIntegral,
+}
+
+/// Directions and weights of a quadrature rule on the unit sphere (weights sum to 1).
+#[derive(Debug, Clone, Default)]
+pub struct SphereRule {
+    pub direction: Vec<[f64; 3]>,
+    pub weight: Vec<f64>,
+}
+
+/// Coupling parameters of the scene.
+#[derive(Resource, Debug, Clone)]
+pub struct Coupling {
+    /// Fluid density rho_f (the flow solver works with density 1: stresses are scaled).
+    pub fluid_density: f64,
+    /// Kinematic viscosity nu of the fluid.
+    pub viscosity: f64,
+    /// Exponent factor of the velocity blending phi = exp(-alpha Re_p) (Luo et al. 2007).
+    pub alpha: f64,
+    pub method: ForceMethod,
+    /// Force points of [`ForceMethod::SurfacePoints`].
+    pub rule: SphereRule,
+    /// DEM subcycles per fluid step, n_s = int(dt_F / dt_D) + 1 (seed; Feng & Owen).
+    pub subcycles: u32,
+}
+
+/// Level-set markers of the fluid cells (seed: 0 outer, p boundary, -p inner cell of
+/// particle p = row + 1 of the current particle order), the list of marked cells (so that
+/// clearing costs what marking cost), and the mask of faces whose velocity the box
+/// boundary conditions prescribe (the particles' faces are added to it each fluid step).
+#[derive(Resource, Debug, Clone, Default)]
+pub struct CellMarkers {
+    pub marker: Vec<i32>,
+    pub marked: Vec<u32>,
+    pub box_mask: Vec<bool>,
+    /// Faces whose centre lies inside a particle at the last marking.
+    pub inside_faces: usize,
+}
+
+/// Hydrodynamic force and torque on every particle from the last fluid step, added to
+/// the contact forces in every DEM subcycle until the next fluid step.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct HydroForces {
+    pub force: Columns,
+    pub torque: Columns,
+    /// Fluid steps whose forces have been sampled.
+    pub sampled_steps: u64,
+}
+
+impl PerParticle for HydroForces {
+    fn resize_rows(&mut self, n: usize) {
+        for col in self.force.iter_mut().chain(self.torque.iter_mut()) {
+            col.resize(n, 0.0);
+        }
+    }
+    fn permute_rows(&mut self, perm: &[u32]) {
+        for col in self.force.iter_mut().chain(self.torque.iter_mut()) {
+            permute_column(col, perm);
+        }
+    }
+    fn bytes_per_row(&self) -> usize {
+        8 * 6
+    }
+}

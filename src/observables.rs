@@ -1,0 +1,254 @@
+//! The observables of coupled runs (`summary.json` → `observables`): the history of the
+//! particles over the fluid steps, and from it and the final flow
+//! * drag case (a fixed sphere in a flow with an inflow): `drag_coefficient`
+//!   `C_D = F . e / (1/2 rho_f U^2 pi r^2)` with the inflow velocity `U = U e`,
+//!   `wake_length_over_d` (recirculation length behind the sphere over its diameter) and
+//!   `separation_angle_deg` (from the front stagnation point);
+//! * one free sphere (sedimentation): `terminal_velocity` (the speed at the end of the run)
+//!   and `particle_reynolds` `2 r |U| / nu`;
+//! * two free spheres (drafting, kissing, tumbling): `kiss_time` (first time the gap falls
+//!   below 1 % of the mean radius, or its smallest value if it never does) and
+//!   `tumble_time` (first time after the kiss at which the trailing sphere passes the
+//!   leading one along gravity).
+use bevy_ecs::prelude::*;
+use grainflow_components::{Clamped, FluidFlow, HydroForces, Particles, SimClock};
+use grainflow_fluid::sample::velocity_at;
+use serde_json::json;
+
+use crate::scene::{FluidBoundary, Scene};
+
+/// One record per fluid step of every particle (by stable id order).
+#[derive(Resource, Debug, Clone, Default)]
+pub struct CouplingLog {
+    pub time: Vec<f64>,
+    /// Per record, per particle (sorted by id): position, velocity, hydrodynamic force.
+    pub state: Vec<Vec<[[f64; 3]; 3]>>,
+    pub ids: Vec<u32>,
+    recorded_steps: u64,
+}
+
+/// Most particles a log follows (the seed's single- and two-sphere cases; a larger scene
+/// keeps no history).
+pub const LOGGED_PARTICLES: usize = 16;
+
+/// `record_coupling`: after every fluid step, the particles' state and hydrodynamic force.
+pub fn record_coupling(
+    clock: Res<SimClock>,
+    particles: Res<Particles>,
+    hydro: Res<HydroForces>,
+    mut log: ResMut<CouplingLog>,
+) {
+    if hydro.sampled_steps == log.recorded_steps || particles.len() > LOGGED_PARTICLES {
+        return;
+    }
+    log.recorded_steps = hydro.sampled_steps;
+    let mut rows: Vec<usize> = (0..particles.len()).collect();
+    rows.sort_by_key(|&i| particles.id[i]);
+    log.ids = rows.iter().map(|&i| particles.id[i]).collect();
+    let col = |c: &[Vec<f64>; 3], i: usize| [c[0][i], c[1][i], c[2][i]];
+    let state = rows
+        .iter()
+        .map(|&i| {
+            [
+                col(&particles.position, i),
+                col(&particles.velocity, i),
+                col(&hydro.force, i),
+            ]
+        })
+        .collect();
+    log.time.push(clock.time);
+    log.state.push(state);
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The observables of a coupled run (an empty object otherwise).
+pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
+    let (Some(log), Some(flow)) = (
+        world.get_resource::<CouplingLog>(),
+        world.get_resource::<FluidFlow>(),
+    ) else {
+        return json!({});
+    };
+    let Some(last) = log.state.last() else {
+        return json!({});
+    };
+    let fluid = scene.fluid.as_ref().expect("coupled scene has a fluid");
+    let nu = fluid.viscosity.expect("validated");
+    let particles = world.resource::<Particles>();
+    let radius_of = |id: u32| {
+        let i = particles
+            .id
+            .iter()
+            .position(|&k| k == id)
+            .expect("logged id");
+        particles.radius[i]
+    };
+    let held = |id: u32| {
+        world.get_resource::<Clamped>().is_some_and(|c| {
+            let i = particles
+                .id
+                .iter()
+                .position(|&k| k == id)
+                .expect("logged id");
+            c.held[i]
+        })
+    };
+    let fixed: Vec<usize> = (0..log.ids.len()).filter(|&k| held(log.ids[k])).collect();
+    let free: Vec<usize> = (0..log.ids.len()).filter(|&k| !held(log.ids[k])).collect();
+    let mut out = serde_json::Map::new();
+    let inflow = fluid
+        .boundaries
+        .sides()
+        .into_iter()
+        .flatten()
+        .find_map(|(_, b)| match b {
+            FluidBoundary::Inflow { velocity, .. } => Some(*velocity),
+            _ => None,
+        });
+    if let (Some(&k), Some(u)) = (fixed.first(), inflow) {
+        let speed = norm(u);
+        let e = u.map(|c| c / speed);
+        let r = radius_of(log.ids[k]);
+        let [xp, _, f] = last[k];
+        let area = std::f64::consts::PI * r * r;
+        out.insert(
+            "drag_coefficient".into(),
+            json!(dot(f, e) / (0.5 * fluid.density * speed * speed * area)),
+        );
+        out.insert("drag_force".into(), json!(f));
+        out.insert(
+            "wake_length_over_d".into(),
+            json!(wake_length(flow, xp, r, e) / (2.0 * r)),
+        );
+        out.insert(
+            "separation_angle_deg".into(),
+            json!(separation_angle(flow, xp, r, e)),
+        );
+        out.insert("reynolds".into(), json!(speed * 2.0 * r / nu));
+    }
+    if free.len() == 1 {
+        let k = free[0];
+        let v = last[k][1];
+        out.insert("terminal_velocity".into(), json!(norm(v)));
+        out.insert("terminal_velocity_vector".into(), json!(v));
+        out.insert(
+            "particle_reynolds".into(),
+            json!(2.0 * radius_of(log.ids[k]) * norm(v) / nu),
+        );
+    }
+    if free.len() == 2 {
+        let (a, b) = (free[0], free[1]);
+        let mean_r = 0.5 * (radius_of(log.ids[a]) + radius_of(log.ids[b]));
+        let g = scene.simulation.gravity;
+        let down = g.map(|c| c / norm(g).max(f64::MIN_POSITIVE));
+        let gap = |s: &Vec<[[f64; 3]; 3]>| {
+            norm([0, 1, 2].map(|d| s[a][0][d] - s[b][0][d])) - 2.0 * mean_r
+        };
+        let gaps: Vec<f64> = log.state.iter().map(gap).collect();
+        let min_gap = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+        // kiss: the first touch (gap below 1 % of the radius), else the smallest gap
+        let touch = 0.01 * mean_r;
+        let kiss_at = gaps
+            .iter()
+            .position(|&g| g < touch)
+            .or_else(|| gaps.iter().position(|&g| g <= min_gap));
+        let kiss_time = kiss_at.map(|k| log.time[k]);
+        // leading sphere at the start: the one further along gravity
+        let s0 = &log.state[0];
+        let lead_first = dot(s0[a][0], down) >= dot(s0[b][0], down);
+        let tumble_time = kiss_time.and_then(|tk| {
+            log.time.iter().zip(&log.state).find_map(|(t, s)| {
+                let lead_now = dot(s[a][0], down) >= dot(s[b][0], down);
+                (*t > tk && lead_now != lead_first).then_some(*t)
+            })
+        });
+        out.insert("kiss_time".into(), json!(kiss_time));
+        out.insert("smallest_gap".into(), json!(min_gap));
+        out.insert("tumble_time".into(), json!(tumble_time));
+    }
+    serde_json::Value::Object(out)
+}
+
+/// Length of the recirculation behind a sphere at `xp` (radius `r`) in a flow along `e`:
+/// from the rear point to where the velocity along `e` on the axis turns positive again
+/// (0 without a reversed flow), sampled every quarter cell.
+pub fn wake_length(flow: &FluidFlow, xp: [f64; 3], r: f64, e: [f64; 3]) -> f64 {
+    let ns = &flow.solver;
+    let g = ns.grid();
+    let u = [&ns.u[0][..], &ns.u[1], &ns.u[2]];
+    let step = 0.25 * g.h().into_iter().fold(f64::INFINITY, f64::min);
+    let inside_box = |x: [f64; 3]| (0..3).all(|d| x[d] > g.lower[d] && x[d] < g.upper[d]);
+    let mut s = r;
+    let mut prev: Option<(f64, f64)> = None;
+    let mut reversed = false;
+    loop {
+        let x = [0, 1, 2].map(|d| xp[d] + s * e[d]);
+        if !inside_box(x) {
+            return if reversed { s - r } else { 0.0 };
+        }
+        let v = dot(velocity_at(g, u, x), e);
+        if v < 0.0 {
+            reversed = true;
+        } else if reversed {
+            let (s0, v0) = prev.expect("a reversed sample before");
+            return s0 + (s - s0) * v0 / (v0 - v) - r;
+        }
+        prev = Some((s, v));
+        s += step;
+    }
+}
+
+/// Separation angle (degrees from the front stagnation point) of the flow along `e`
+/// around a sphere: the first angle at which the velocity along the surface, sampled
+/// one cell off the surface and averaged over four meridian planes, turns against the
+/// flow; 180 without separation.
+pub fn separation_angle(flow: &FluidFlow, xp: [f64; 3], r: f64, e: [f64; 3]) -> f64 {
+    let ns = &flow.solver;
+    let g = ns.grid();
+    let u = [&ns.u[0][..], &ns.u[1], &ns.u[2]];
+    let h = g.h().into_iter().fold(f64::INFINITY, f64::max);
+    let rs = r + h;
+    // two directions normal to e
+    let a = if e[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let n1 = {
+        let t = [0, 1, 2].map(|d| a[d] - dot(a, e) * e[d]);
+        t.map(|c| c / norm(t))
+    };
+    let n2 = [
+        e[1] * n1[2] - e[2] * n1[1],
+        e[2] * n1[0] - e[0] * n1[2],
+        e[0] * n1[1] - e[1] * n1[0],
+    ];
+    let tangential = |theta: f64| -> f64 {
+        let (s, c) = theta.sin_cos();
+        let mut sum = 0.0;
+        for n in [n1, n2, n1.map(|v| -v), n2.map(|v| -v)] {
+            let x = [0, 1, 2].map(|d| xp[d] + rs * (-c * e[d] + s * n[d]));
+            let t = [0, 1, 2].map(|d| s * e[d] + c * n[d]);
+            sum += dot(velocity_at(g, u, x), t);
+        }
+        sum / 4.0
+    };
+    let steps = 360;
+    let mut prev = (0.0, tangential(0.0));
+    for k in 1..=steps {
+        let theta = std::f64::consts::PI * k as f64 / steps as f64;
+        let v = tangential(theta);
+        if v < 0.0 && theta > 0.25 * std::f64::consts::PI {
+            let (t0, v0) = prev;
+            return (t0 + (theta - t0) * v0 / (v0 - v)).to_degrees();
+        }
+        prev = (theta, v);
+    }
+    180.0
+}

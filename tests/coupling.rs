@@ -1,0 +1,293 @@
+//! Fluid-particle coupling (seed, "Coupling of the phases"): fictitious boundary with
+//! rigid-body faces, hydrodynamic force and torque from surface force points (Lebedev
+//! quadrature) and from the volume integral, subcycling. Small grids so the suite stays
+//! fast; the tolerances are stated with the resolution they allow.
+mod common;
+
+use std::f64::consts::PI;
+
+use common::simulation;
+use grainflow_components::{Coupling, FluidFlow, HydroForces, Particles};
+use grainflow_systems::fluid::subcycles;
+
+/// Scene text: fluid box `[0,1]^3` of `cells`^3 coarse cells at `level`, viscosity `nu`,
+/// fluid time step `dt_f`, `boundaries` (TOML lines), one sphere (TOML lines), the
+/// coupling section and extra fluid lines.
+fn scene(cells: usize, level: u32, nu: f64, dt_f: f64, boundaries: &str, sphere: &str) -> String {
+    format!(
+        r#"
+[simulation]
+dt = {dt_f}
+end_time = 1.0
+gravity = [0.0, 0.0, 0.0]
+output_interval = 0.0
+# one sphere and no walls: no contact to resolve
+allow_unstable_dt = true
+
+[fluid]
+density = 1.0
+viscosity = {nu}
+min = [0.0, 0.0, 0.0]
+max = [1.0, 1.0, 1.0]
+cells = [{cells}, {cells}, {cells}]
+level = {level}
+dt = {dt_f}
+scheme = "backward_euler"
+
+[fluid.boundaries]
+{boundaries}
+
+[[materials]]
+name = "s"
+density = 1.0
+youngs_modulus = 100.0
+poisson_ratio = 0.3
+
+[[spheres]]
+material = "s"
+{sphere}
+"#
+    )
+}
+
+/// Run until `fluid_steps` fluid steps are done.
+fn run_fluid_steps(sim: &mut grainflow::run::Simulation, fluid_steps: u64) {
+    while sim.world.resource::<FluidFlow>().stats.steps < fluid_steps {
+        sim.step();
+        assert!(sim.failure().is_none(), "{:?}", sim.failure());
+    }
+    // the forces of the last fluid step are sampled in the step that ran it
+}
+
+fn hydro(sim: &grainflow::run::Simulation) -> ([f64; 3], [f64; 3]) {
+    let h = sim.world.resource::<HydroForces>();
+    (
+        [h.force[0][0], h.force[1][0], h.force[2][0]],
+        [h.torque[0][0], h.torque[1][0], h.torque[2][0]],
+    )
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// A sphere carried by a uniform flow at the flow's velocity disturbs nothing: the rigid
+/// faces carry the flow's velocity, the stress vanishes, and so do force and torque (to
+/// round-off), for both force methods; the sphere keeps its velocity.
+#[test]
+fn sphere_moving_with_a_uniform_flow_feels_no_force() {
+    for method in ["surface_points", "volume_integral"] {
+        let mut text = scene(
+            4,
+            2,
+            0.1,
+            0.01,
+            r#"xmin = { type = "inflow", velocity = [1.0, 0.0, 0.0] }
+xmax = { type = "outflow" }
+ymin = { type = "periodic" }
+ymax = { type = "periodic" }
+zmin = { type = "periodic" }
+zmax = { type = "periodic" }"#,
+            "radius = 0.2\nposition = [0.35, 0.5, 0.5]\nvelocity = [1.0, 0.0, 0.0]",
+        );
+        text.push_str(&format!("\n[coupling]\nforce = \"{method}\"\n"));
+        let mut sim = simulation(&text, "uniform.toml");
+        sim.world.resource_mut::<FluidFlow>().solver.u[0].fill(1.0);
+        run_fluid_steps(&mut sim, 6);
+        let (f, t) = hydro(&sim);
+        let stokes = 6.0 * PI * 0.1 * 0.2 * 1.0;
+        assert!(norm(f) < 1e-10 * stokes, "{method}: force {f:?}");
+        assert!(norm(t) < 1e-10 * stokes * 0.2, "{method}: torque {t:?}");
+        let p = sim.world.resource::<Particles>();
+        assert!(
+            (p.velocity[0][0] - 1.0).abs() < 1e-12,
+            "{method}: {}",
+            p.velocity[0][0]
+        );
+        let moved = p.position[0][0] - 0.35;
+        let t = sim.world.resource::<grainflow_components::SimClock>().time;
+        assert!(
+            (moved - t).abs() < 1e-12,
+            "{method}: moved {moved} in {t} at U = 1"
+        );
+        let flow = sim.world.resource::<FluidFlow>();
+        let dev = flow.solver.u[0]
+            .iter()
+            .fold(0.0f64, |m, u| m.max((u - 1.0).abs()));
+        assert!(dev < 1e-10, "{method}: flow disturbed by {dev:e}");
+    }
+}
+
+/// Stokes drag in a periodic cubic array of spheres (Hasimoto 1959, J. Fluid Mech.
+/// 5:317, eq. for the simple cubic array; coefficients as quoted by Sangani & Acrivos
+/// 1982, Int. J. Multiphase Flow 8:343): `F = 6 pi mu a U K`,
+/// `1/K = 1 - 1.7601 c^(1/3) + c - 1.5593 c^2 + O(c^(8/3))` with the solid fraction `c`
+/// and the superficial velocity `U`. A fixed sphere a = L/8 in a periodic box driven by a
+/// body force; grid 32^3 (4 cells per radius); 30 backward-Euler steps of 0.25 (the
+/// ratio K has settled to 0.5 % by then, the flow itself to ~5 %). Tolerances: the
+/// fictitious boundary is resolved to h/2 (a face is inside or outside), an O(h/a) =
+/// 12 % uncertainty of the sphere's effective radius at 4 cells per radius, the bar of
+/// the default volume-integral force (measured -6.6 %). The seed's surface force points
+/// sample the stress in the cells the surface cuts, where the mean gradient is an O(1)
+/// estimate of the wall shear (corrected by the fluid fraction of the cell): measured
+/// +34 %, bar 45 %; that is why the volume integral is the default.
+#[test]
+fn periodic_array_drag_matches_hasimoto() {
+    let (a, nu, f) = (0.125, 1.0, 0.5);
+    let c = 4.0 / 3.0 * PI * a * a * a;
+    let k_ref = 1.0 / (1.0 - 1.7601 * c.cbrt() + c - 1.5593 * c * c);
+    let mut failures = Vec::new();
+    for (method, tol) in [("volume_integral", 0.12), ("surface_points", 0.45)] {
+        let mut text = scene(
+            8,
+            3,
+            nu,
+            0.25,
+            r#"xmin = { type = "periodic" }
+xmax = { type = "periodic" }
+ymin = { type = "periodic" }
+ymax = { type = "periodic" }
+zmin = { type = "periodic" }
+zmax = { type = "periodic" }"#,
+            "radius = 0.125\nposition = [0.5, 0.5, 0.5]\nfixed = true",
+        );
+        text = text.replace(
+            "scheme = \"backward_euler\"",
+            &format!("scheme = \"backward_euler\"\nbody_force = [{f}, 0.0, 0.0]"),
+        );
+        text.push_str(&format!("\n[coupling]\nforce = \"{method}\"\n"));
+        let mut sim = simulation(&text, "hasimoto.toml");
+        run_fluid_steps(&mut sim, 30);
+        let (force, _) = hydro(&sim);
+        let flow = sim.world.resource::<FluidFlow>();
+        let lay = flow.solver.grid().layout();
+        let xf = &flow.solver.u[0][lay.off[0]..lay.off[1]];
+        let u_s = xf.iter().sum::<f64>() / xf.len() as f64;
+        let k = force[0] / (6.0 * PI * nu * a * u_s);
+        // momentum balance of the periodic box: the drag carries the body force on the fluid
+        let balance = force[0] / (f * (1.0 - c));
+        println!(
+            "{method}: K = {k:.4} (Hasimoto {k_ref:.4}, {:+.2} %), U_s = {u_s:.4e}, drag / body force on the fluid = {balance:.4}",
+            100.0 * (k / k_ref - 1.0)
+        );
+        if (k / k_ref - 1.0).abs() >= tol {
+            failures.push(format!("{method}: K = {k} vs {k_ref}"));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// Torque on a sphere rotating at the centre of a closed box at rest. The Stokes torque
+/// `T = -8 pi mu a^3 w` (Lamb 1932, art. 334) with the wall factor of a concentric
+/// spherical container of radius b, `1 / (1 - (a/b)^3)` (Happel & Brenner 1965, sec.
+/// 4-17): for the cube of side 1 and a = 1/8 it lies between the inscribed (b = 1/2,
+/// 1.016) and the circumscribed sphere (b = sqrt(3)/2, 1.003). The sphere is very dense,
+/// so it keeps its spin over the test. Grid 32^3, 4 cells per radius; the torque goes
+/// with a^3, so the h/2 resolution of the fictitious boundary allows several 10 %:
+/// volume integral measured -11 % (bar 15 %, and no stray force beyond round-off), the
+/// seed's surface points +64 % (bar 70 %, stray force 0.7 % of T/a from the cut cells
+/// they sample, bar 2 %).
+#[test]
+fn rotating_sphere_torque_matches_stokes() {
+    let (a, nu, w): (f64, f64, f64) = (0.125, 1.0, 0.2);
+    let mut failures = Vec::new();
+    for (method, tol, stray) in [
+        ("volume_integral", 0.15, 1e-6),
+        ("surface_points", 0.7, 0.02),
+    ] {
+        let mut text = scene(
+            8,
+            3,
+            nu,
+            0.05,
+            r#"xmin = { type = "wall" }"#,
+            &format!(
+                "radius = {a}\nposition = [0.5, 0.5, 0.5]\nangular_velocity = [0.0, 0.0, {w}]"
+            ),
+        );
+        text = text.replace("density = 1.0\nyoungs", "density = 1.0e12\nyoungs");
+        text.push_str(&format!("\n[coupling]\nforce = \"{method}\"\n"));
+        let mut sim = simulation(&text, "rotation.toml");
+        run_fluid_steps(&mut sim, 8);
+        let (force, torque) = hydro(&sim);
+        let stokes = -8.0 * PI * nu * a.powi(3) * w;
+        let ratio = torque[2] / stokes;
+        println!(
+            "{method}: T / T_Stokes = {ratio:.4} (container factor 1.003-1.016), force {force:?}"
+        );
+        if !(ratio > 1.003 * (1.0 - tol) && ratio < 1.016 * (1.0 + tol)) {
+            failures.push(format!("{method}: T / T_Stokes = {ratio}"));
+        }
+        assert!(
+            norm(force) < stray * stokes.abs() / a,
+            "{method}: force {force:?}"
+        );
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// The seed's subcycling formula (after Feng & Owen 2007): n_s = int(dt_F / dt_D) + 1,
+/// dt_D' = dt_F / n_s, and the world runs with dt_D'.
+#[test]
+fn subcycling_follows_the_seeds_formula() {
+    assert_eq!(subcycles(1e-4, 1e-5), 11);
+    assert_eq!(subcycles(1e-4, 3e-5), 4);
+    assert_eq!(subcycles(1e-4, 2e-4), 1);
+    let text = scene(
+        4,
+        1,
+        0.1,
+        1e-2,
+        "",
+        "radius = 0.1\nposition = [0.5, 0.5, 0.5]",
+    )
+    .replace("[simulation]\ndt = 0.01", "[simulation]\ndt = 1.5e-3");
+    let sim = simulation(&text, "subcycles.toml");
+    assert_eq!(sim.world.resource::<Coupling>().subcycles, 7);
+    let dt = sim.world.resource::<grainflow_components::SimClock>().dt;
+    assert!((dt - 1e-2 / 7.0).abs() < 1e-18, "dt_D' = {dt}");
+}
+
+/// Terminal velocity of a sphere settling in a closed box (rho / rho_f = 2, Re_p ~ 0.02;
+/// dt_F = 1e-3 against the particle's Stokes relaxation time ~1.2e-2: the explicit
+/// coupling is unstable at dt_F ~ that time, measured)
+/// with one DEM step per fluid step (n_s = 1) and with the seed's ratio
+/// dt_F / dt_D = 10 (n_s = 11): the hydrodynamic force is held over the subcycles, so
+/// both reach the same terminal velocity; bar 1 % (the issue's).
+#[test]
+fn settling_sphere_terminal_velocity_is_independent_of_subcycles() {
+    let mut terminal = Vec::new();
+    for (dt_d, n_s) in [(0.002, 1), (0.0001, 11)] {
+        let text = scene(
+            4,
+            2,
+            1.0,
+            0.001,
+            "",
+            "radius = 0.2\nposition = [0.5, 0.5, 0.7]",
+        )
+        .replace(
+            "[simulation]\ndt = 0.001",
+            &format!("[simulation]\ndt = {dt_d}"),
+        )
+        .replace("gravity = [0.0, 0.0, 0.0]", "gravity = [0.0, 0.0, -10.0]")
+        .replace("density = 1.0\nyoungs", "density = 2.0\nyoungs");
+        let mut sim = simulation(&text, "settling.toml");
+        assert_eq!(sim.world.resource::<Coupling>().subcycles, n_s);
+        run_fluid_steps(&mut sim, 100);
+        let v = sim.world.resource::<Particles>().velocity[2][0];
+        run_fluid_steps(&mut sim, 120);
+        let v2 = sim.world.resource::<Particles>().velocity[2][0];
+        println!("n_s = {n_s}: w = {v:.6e} after 100 fluid steps, {v2:.6e} after 120");
+        assert!(
+            v2 < 0.0 && ((v2 - v) / v2).abs() < 2e-3,
+            "not terminal: {v} -> {v2}"
+        );
+        terminal.push(v2);
+    }
+    let diff = (terminal[0] / terminal[1] - 1.0).abs();
+    assert!(
+        diff < 0.01,
+        "terminal velocities {terminal:?} differ by {diff}"
+    );
+}
