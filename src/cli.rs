@@ -136,10 +136,10 @@ fn check(args: CheckArgs) -> ExitCode {
                     let (n_s, dt_d) = scene.subcycling.expect("coupled scene");
                     let _ = writeln!(
                         out,
-                        "coupling   force {:?} ({} Lebedev points), alpha = {}; subcycles n_s = int(dt_F / dt_D) + 1 = {n_s} (dt_D = {dt_d:e} s asked, dt_D' = dt_F / n_s = {:e} s)",
+                        "coupling   force {:?} ({} Lebedev points), blending alpha = {}; subcycles n_s = int(dt_F / dt_D) + 1 = {n_s} (dt_D = {dt_d:e} s asked, dt_D' = dt_F / n_s = {:e} s)",
                         c.method,
                         c.rule.weight.len(),
-                        c.alpha,
+                        c.alpha.map_or("off".to_string(), |a| a.to_string()),
                         scene.simulation.dt
                     );
                 }
@@ -280,6 +280,17 @@ fn run(args: RunArgs) -> ExitCode {
         if let Err(e) = std::fs::write(&summary_path, serde_json::to_string_pretty(&summary).expect("json") + "\n") {
             eprintln!("error: cannot write {}: {e}", summary_path.display());
             return ExitCode::from(1);
+        }
+        if let Some(log) = sim
+            .world
+            .get_resource::<crate::observables::CouplingLog>()
+            .filter(|log| !log.time.is_empty())
+        {
+            let path = out_dir.join("coupling.csv");
+            if let Err(e) = std::fs::write(&path, log.to_csv()) {
+                eprintln!("error: cannot write {}: {e}", path.display());
+                return ExitCode::from(1);
+            }
         }
         let mut out = String::new();
         let rate = report.particle_steps / report.wall_seconds.max(1e-12);

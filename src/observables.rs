@@ -3,7 +3,9 @@
 //! * drag case (a fixed sphere in a flow with an inflow): `drag_coefficient`
 //!   `C_D = F . e / (1/2 rho_f U^2 pi r^2)` with the inflow velocity `U = U e`,
 //!   `wake_length_over_d` (recirculation length behind the sphere over its diameter) and
-//!   `separation_angle_deg` (from the front stagnation point);
+//!   `separation_angle_deg` (from the front stagnation point), and the drag coefficient of
+//!   both force methods on the final flow (`drag_coefficient_volume_integral`,
+//!   `drag_coefficient_surface_points`; the blending momentum, if any, not included);
 //! * one free sphere (sedimentation): `terminal_velocity` (the speed at the end of the run)
 //!   and `particle_reynolds` `2 r |U| / nu`;
 //! * two free spheres (drafting, kissing, tumbling): `kiss_time` (first time the gap falls
@@ -11,8 +13,11 @@
 //!   `tumble_time` (first time after the kiss at which the trailing sphere passes the
 //!   leading one along gravity).
 use bevy_ecs::prelude::*;
-use grainflow_components::{Clamped, FluidFlow, HydroForces, Particles, SimClock};
+use grainflow_components::{Clamped, Coupling, FluidFlow, HydroForces, Particles, SimClock};
 use grainflow_fluid::sample::velocity_at;
+use grainflow_systems::hydrodynamic::{
+    momentum_residual, surface_point_force, volume_integral_force,
+};
 use serde_json::json;
 
 use crate::scene::{FluidBoundary, Scene};
@@ -58,6 +63,25 @@ pub fn record_coupling(
         .collect();
     log.time.push(clock.time);
     log.state.push(state);
+}
+
+impl CouplingLog {
+    /// The history as CSV (`coupling.csv` of a run directory): one line per fluid step and
+    /// particle, `time,id,x,y,z,vx,vy,vz,fx,fy,fz` (the hydrodynamic force), SI or scene
+    /// units as the scene's.
+    pub fn to_csv(&self) -> String {
+        let mut out = String::from("time,id,x,y,z,vx,vy,vz,fx,fy,fz\n");
+        for (t, rows) in self.time.iter().zip(&self.state) {
+            for (id, row) in self.ids.iter().zip(rows) {
+                out.push_str(&format!("{t:e},{id}"));
+                for v in row.iter().flatten() {
+                    out.push_str(&format!(",{v:e}"));
+                }
+                out.push('\n');
+            }
+        }
+        out
+    }
 }
 
 fn norm(v: [f64; 3]) -> f64 {
@@ -122,6 +146,28 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
             json!(dot(f, e) / (0.5 * fluid.density * speed * speed * area)),
         );
         out.insert("drag_force".into(), json!(f));
+        // both force methods on the final flow, for comparison (the flow does not depend
+        // on the method around a fixed sphere)
+        if let Some(coupling) = world.get_resource::<Coupling>() {
+            let ns = &flow.solver;
+            let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
+            let residual = momentum_residual(grid, u, p, coupling.viscosity);
+            for (name, force) in [
+                (
+                    "drag_coefficient_volume_integral",
+                    volume_integral_force(grid, &residual, coupling, xp, r).0,
+                ),
+                (
+                    "drag_coefficient_surface_points",
+                    surface_point_force(grid, u, p, coupling, xp, r).0,
+                ),
+            ] {
+                out.insert(
+                    name.into(),
+                    json!(dot(force, e) / (0.5 * fluid.density * speed * speed * area)),
+                );
+            }
+        }
         out.insert(
             "wake_length_over_d".into(),
             json!(wake_length(flow, xp, r, e) / (2.0 * r)),
@@ -212,7 +258,7 @@ pub fn separation_angle(flow: &FluidFlow, xp: [f64; 3], r: f64, e: [f64; 3]) -> 
     let ns = &flow.solver;
     let g = ns.grid();
     let u = [&ns.u[0][..], &ns.u[1], &ns.u[2]];
-    let h = g.h().into_iter().fold(f64::INFINITY, f64::max);
+    let h = g.h().into_iter().fold(0.0, f64::max);
     let rs = r + h;
     // two directions normal to e
     let a = if e[0].abs() < 0.9 {

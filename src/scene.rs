@@ -157,9 +157,10 @@ pub struct Fluid {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CouplingSpec {
-    /// Blending exponent factor alpha of phi = exp(-alpha Re_p) (Luo et al. 2007).
-    #[serde(default = "default_alpha")]
-    pub alpha: f64,
+    /// Blending exponent factor alpha of phi = exp(-alpha Re_p) (Luo et al. 2007); no
+    /// blending when absent.
+    #[serde(default)]
+    pub alpha: Option<f64>,
     /// Hydrodynamic force method.
     #[serde(default)]
     pub force: ForceMethodName,
@@ -171,16 +172,13 @@ pub struct CouplingSpec {
 impl Default for CouplingSpec {
     fn default() -> Self {
         CouplingSpec {
-            alpha: default_alpha(),
+            alpha: None,
             force: ForceMethodName::default(),
             points: default_force_points(),
         }
     }
 }
 
-fn default_alpha() -> f64 {
-    0.1
-}
 fn default_force_points() -> usize {
     110
 }
@@ -924,10 +922,10 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                     .into(),
             ));
         }
-        if !(c.alpha.is_finite() && c.alpha >= 0.0) {
+        if let Some(alpha) = c.alpha.filter(|a| !(a.is_finite() && *a >= 0.0)) {
             return Err((
                 "coupling.alpha".into(),
-                format!("expected a number >= 0, got {}", c.alpha),
+                format!("expected a number >= 0, got {alpha}"),
             ));
         }
         if grainflow_systems::lebedev::rule_degree(c.points).is_none() {

@@ -32,8 +32,9 @@ pub struct Coupling {
     pub fluid_density: f64,
     /// Kinematic viscosity nu of the fluid.
     pub viscosity: f64,
-    /// Exponent factor of the velocity blending phi = exp(-alpha Re_p) (Luo et al. 2007).
-    pub alpha: f64,
+    /// Exponent factor of the velocity blending phi = exp(-alpha Re_p) (Luo et al. 2007);
+    /// `None`: no blending.
+    pub alpha: Option<f64>,
     pub method: ForceMethod,
     /// Force points of [`ForceMethod::SurfacePoints`].
     pub rule: SphereRule,
@@ -60,22 +61,36 @@ pub struct CellMarkers {
 pub struct HydroForces {
     pub force: Columns,
     pub torque: Columns,
+    /// Momentum per time that the last velocity blending moved from the fluid to each
+    /// particle (added to `force` and `torque` when they are sampled).
+    pub blending_force: Columns,
+    pub blending_torque: Columns,
     /// Fluid steps whose forces have been sampled.
     pub sampled_steps: u64,
 }
 
+impl HydroForces {
+    fn columns(&mut self) -> impl Iterator<Item = &mut Vec<f64>> {
+        self.force
+            .iter_mut()
+            .chain(self.torque.iter_mut())
+            .chain(self.blending_force.iter_mut())
+            .chain(self.blending_torque.iter_mut())
+    }
+}
+
 impl PerParticle for HydroForces {
     fn resize_rows(&mut self, n: usize) {
-        for col in self.force.iter_mut().chain(self.torque.iter_mut()) {
+        for col in self.columns() {
             col.resize(n, 0.0);
         }
     }
     fn permute_rows(&mut self, perm: &[u32]) {
-        for col in self.force.iter_mut().chain(self.torque.iter_mut()) {
+        for col in self.columns() {
             permute_column(col, perm);
         }
     }
     fn bytes_per_row(&self) -> usize {
-        8 * 6
+        8 * 12
     }
 }

@@ -191,8 +191,8 @@ pub fn hydrodynamic_sampling(
             .collect();
         for (i, (f, t)) in ft.iter().enumerate() {
             for d in 0..3 {
-                hydro.force[d][i] = f[d];
-                hydro.torque[d][i] = t[d];
+                hydro.force[d][i] = f[d] + hydro.blending_force[d][i];
+                hydro.torque[d][i] = t[d] + hydro.blending_torque[d][i];
             }
         }
     }
@@ -271,7 +271,7 @@ mod tests {
             let coupling = Coupling {
                 fluid_density: 1.0,
                 viscosity: nu,
-                alpha: 0.0,
+                alpha: None,
                 method: ForceMethod::SurfacePoints,
                 rule: crate::lebedev::lebedev_rule(110).unwrap(),
                 subcycles: 1,
