@@ -142,6 +142,16 @@ fn check(args: CheckArgs) -> ExitCode {
                         c.alpha.map_or("off".to_string(), |a| a.to_string()),
                         scene.simulation.dt
                     );
+                    let p = sim.world.resource::<grainflow_components::Particles>();
+                    let held = sim.world.get_resource::<grainflow_components::Clamped>();
+                    if let Some(tau) = crate::observables::shortest_response_time(p, held, c) {
+                        let dt_f = f.dt.unwrap_or(0.0);
+                        let _ = writeln!(
+                            out,
+                            "  explicit coupling: shortest particle response time tau = (m + rho_f V / 2) / (6 pi mu r) = {tau:.3e} s, dt_F / tau = {:.3} (the held force overshoots near 1: a settling sphere with rho / rho_f = 2 ran away at dt_F / tau = 0.45 and is stable at 0.045, tests/coupling.rs)",
+                            dt_f / tau
+                        );
+                    }
                 }
             }
             Ok(None) => {

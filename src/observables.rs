@@ -65,6 +65,28 @@ pub fn record_coupling(
     log.state.push(state);
 }
 
+/// The shortest response time of a free particle to the hydrodynamic force, the Stokes
+/// relaxation time with the added mass of a sphere,
+/// `tau = (m + rho_f V / 2) / (6 pi mu r)` (e.g. Crowe et al., Multiphase Flows with
+/// Droplets and Particles, 2011, sec. 4.3); the explicit coupling (force held over a
+/// fluid step) needs `dt_F` well below it. `None` without free particles (`held`: the
+/// fixed ones, if any).
+pub fn shortest_response_time(
+    particles: &Particles,
+    held: Option<&Clamped>,
+    coupling: &Coupling,
+) -> Option<f64> {
+    let mu = coupling.fluid_density * coupling.viscosity;
+    (0..particles.len())
+        .filter(|&i| particles.inv_mass[i] > 0.0 && !held.is_some_and(|c| c.held[i]))
+        .map(|i| {
+            let r = particles.radius[i];
+            let added = 0.5 * coupling.fluid_density * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+            (1.0 / particles.inv_mass[i] + added) / (6.0 * std::f64::consts::PI * mu * r)
+        })
+        .reduce(f64::min)
+}
+
 impl CouplingLog {
     /// The history as CSV (`coupling.csv` of a run directory): one line per fluid step and
     /// particle, `time,id,x,y,z,vx,vy,vz,fx,fy,fz` (the hydrodynamic force), SI or scene

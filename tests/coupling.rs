@@ -249,8 +249,9 @@ fn subcycling_follows_the_seeds_formula() {
 }
 
 /// Terminal velocity of a sphere settling in a closed box (rho / rho_f = 2, Re_p ~ 0.02;
-/// dt_F = 1e-3 against the particle's Stokes relaxation time ~1.2e-2: the explicit
-/// coupling is unstable at dt_F ~ that time, measured)
+/// dt_F = 1e-3 against the particle's response time
+/// tau = (m + rho_f V / 2) / (6 pi mu r) = 2.2e-2 that `grainflow check` reports: the
+/// explicit coupling ran away at dt_F = 1e-2, measured)
 /// with one DEM step per fluid step (n_s = 1) and with the seed's ratio
 /// dt_F / dt_D = 10 (n_s = 11): the hydrodynamic force is held over the subcycles, so
 /// both reach the same terminal velocity; bar 1 % (the issue's).

@@ -204,7 +204,12 @@ impl FaceMg {
                 } else {
                     g.dirichlet_mask()
                 };
-                let transfer = g.coarser().map(|c| FaceTransfer::new(&c, g, &mask));
+                // the prolongation leaves out the box's prescribed faces only; the other
+                // masked faces of the finest level are zeroed after it, so that
+                // [`FaceMg::set_mask`] needs no new transfer
+                let transfer = g
+                    .coarser()
+                    .map(|c| FaceTransfer::new(&c, g, &g.dirichlet_mask()));
                 FaceLevel {
                     grid: g.clone(),
                     op: FaceOperator::helmholtz(g, alpha, nu),
@@ -223,6 +228,14 @@ impl FaceMg {
             smoothing: (2, 2),
             cycle: Cycle::V,
         }
+    }
+
+    /// Replaces the finest level's mask of prescribed faces (at least
+    /// [`Grid::dirichlet_mask`]), e.g. after particles moved; the hierarchy is kept.
+    pub fn set_mask(&mut self, mask: Vec<bool>) {
+        let fine = self.levels.last_mut().expect("one level at least");
+        assert_eq!(mask.len(), fine.mask.len(), "mask: one flag per face");
+        fine.mask = mask;
     }
 
     /// Replaces the operators of all levels by `alpha M + nu K` (consistent mass) or
@@ -343,6 +356,11 @@ impl FaceMg {
         // adaptive step length: x += alpha v, v = P e_c, alpha = (r, v) / (A v, v)
         fine.tmp.iter_mut().for_each(|v| *v = 0.0);
         tr.prolong_add(&coarse.x, &mut fine.tmp);
+        fine.tmp.iter_mut().zip(&fine.mask).for_each(|(v, &m)| {
+            if m {
+                *v = 0.0
+            }
+        });
         fine.op.apply(&fine.tmp, &mut fine.av);
         fine.av.iter_mut().zip(&fine.mask).for_each(|(v, &m)| {
             if m {

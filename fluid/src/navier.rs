@@ -315,10 +315,10 @@ impl NavierStokes {
         self.project_markers = on;
     }
 
-    /// Replaces the mask of prescribed faces (e.g. after particles moved); rebuilds the
-    /// momentum multigrid.
+    /// Replaces the mask of prescribed faces (e.g. after particles moved) in the solver
+    /// and in the finest level of the momentum multigrid (no rebuild).
     pub fn set_mask(&mut self, mask: Vec<bool>) {
-        self.mg = FaceMg::new(&self.grid, 1.0, self.cfg.nu, mask.clone());
+        self.mg.set_mask(mask.clone());
         self.mask = mask;
     }
 
