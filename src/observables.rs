@@ -6,8 +6,9 @@
 //!   `separation_angle_deg` (from the front stagnation point), and the drag coefficient of
 //!   both force methods on the final flow (`drag_coefficient_volume_integral`,
 //!   `drag_coefficient_surface_points`; the blending momentum, if any, not included);
-//! * one free sphere (sedimentation): `terminal_velocity` (the speed at the end of the run)
-//!   and `particle_reynolds` `2 r |U| / nu`;
+//! * one free sphere (sedimentation): `terminal_velocity` (the speed of the mean velocity
+//!   over the last tenth of the run, with the spread of the speed over it as
+//!   `terminal_velocity_spread`) and `particle_reynolds` `2 r |U| / nu`;
 //! * two free spheres (drafting, kissing, tumbling): `kiss_time` (first time the gap falls
 //!   below 1 % of the mean radius, or its smallest value if it never does) and
 //!   `tumble_time` (first time after the kiss at which the trailing sphere passes the
@@ -202,9 +203,24 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
     }
     if free.len() == 1 {
         let k = free[0];
-        let v = last[k][1];
+        // mean over the last tenth of the run: a sphere of few cells per diameter moves in
+        // steps of the face layers it crosses (a sawtooth of period h / U)
+        let t_end = log.time.last().copied().unwrap_or(0.0);
+        let window: Vec<[f64; 3]> = log
+            .time
+            .iter()
+            .zip(&log.state)
+            .filter(|(t, _)| **t >= 0.9 * t_end)
+            .map(|(_, s)| s[k][1])
+            .collect();
+        let n = window.len().max(1) as f64;
+        let v = [0, 1, 2].map(|d| window.iter().map(|w| w[d]).sum::<f64>() / n);
+        let speeds = window.iter().map(|w| norm(*w));
+        let spread =
+            speeds.clone().fold(f64::NEG_INFINITY, f64::max) - speeds.fold(f64::INFINITY, f64::min);
         out.insert("terminal_velocity".into(), json!(norm(v)));
         out.insert("terminal_velocity_vector".into(), json!(v));
+        out.insert("terminal_velocity_spread".into(), json!(spread));
         out.insert(
             "particle_reynolds".into(),
             json!(2.0 * radius_of(log.ids[k]) * norm(v) / nu),
