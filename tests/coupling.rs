@@ -50,6 +50,12 @@ material = "s"
     )
 }
 
+/// Periodic y and z sides (TOML lines of `[fluid.boundaries]`).
+const PERIODIC_YZ: &str = r#"ymin = { type = "periodic" }
+ymax = { type = "periodic" }
+zmin = { type = "periodic" }
+zmax = { type = "periodic" }"#;
+
 /// Run until `fluid_steps` fluid steps are done.
 fn run_fluid_steps(sim: &mut grainflow::run::Simulation, fluid_steps: u64) {
     while sim.world.resource::<FluidFlow>().stats.steps < fluid_steps {
@@ -82,12 +88,9 @@ fn sphere_moving_with_a_uniform_flow_feels_no_force() {
             2,
             0.1,
             0.01,
-            r#"xmin = { type = "inflow", velocity = [1.0, 0.0, 0.0] }
-xmax = { type = "outflow" }
-ymin = { type = "periodic" }
-ymax = { type = "periodic" }
-zmin = { type = "periodic" }
-zmax = { type = "periodic" }"#,
+            &format!(
+                "xmin = {{ type = \"inflow\", velocity = [1.0, 0.0, 0.0] }}\nxmax = {{ type = \"outflow\" }}\n{PERIODIC_YZ}"
+            ),
             "radius = 0.2\nposition = [0.35, 0.5, 0.5]\nvelocity = [1.0, 0.0, 0.0]",
         );
         text.push_str(&format!("\n[coupling]\nforce = \"{method}\"\n"));
@@ -143,12 +146,9 @@ fn periodic_array_drag_matches_hasimoto() {
             3,
             nu,
             0.25,
-            r#"xmin = { type = "periodic" }
-xmax = { type = "periodic" }
-ymin = { type = "periodic" }
-ymax = { type = "periodic" }
-zmin = { type = "periodic" }
-zmax = { type = "periodic" }"#,
+            &format!(
+                "xmin = {{ type = \"periodic\" }}\nxmax = {{ type = \"periodic\" }}\n{PERIODIC_YZ}"
+            ),
             "radius = 0.125\nposition = [0.5, 0.5, 0.5]\nfixed = true",
         );
         text = text.replace(

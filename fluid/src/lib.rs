@@ -38,6 +38,9 @@
 //!   the momentum and pressure solves, their wall seconds, the divergence after the step).
 //!   Convection: [`Convection`], dual-cell fluxes with Samarskij upwinding, implicit
 //!   (linearised about an extrapolated velocity), second order in `h` at fixed viscosity.
+//! * [`ghia`]: the lid-driven cavity of Ghia et al. (1982), its reference centreline
+//!   profiles (Re = 100, 400) and the deviation of a computed flow from them (tests,
+//!   `benches/cavity_error.rs`, docs/fluid-benchmarks.md).
 //!
 //! # Known limits
 //! * The viscous term is the Laplacian form `nu K` by default; the deformation-tensor form
@@ -67,6 +70,7 @@
 //!   0.9 per step (cavity Re = 100).
 
 pub mod element;
+pub mod ghia;
 pub mod grid;
 pub mod mg_cell;
 pub mod mg_face;

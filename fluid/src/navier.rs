@@ -533,115 +533,9 @@ impl NavierStokes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ghia::{self, GHIA_U_100, GHIA_U_400, GHIA_V_100, GHIA_V_400};
     use crate::grid::BoundaryKind::*;
     use std::f64::consts::PI;
-
-    /// Ghia, Ghia & Shin 1982 (J. Comput. Phys. 48:387), Re = 100, as transcribed in
-    /// ../shared/reference/fluid-benchmarks.md: `(y, u(0.5, y))` and `(x, v(x, 0.5))`.
-    const GHIA_U_100: [(f64, f64); 15] = [
-        (0.9766, 0.84123),
-        (0.9688, 0.78871),
-        (0.9609, 0.73722),
-        (0.9531, 0.68717),
-        (0.8516, 0.23151),
-        (0.7344, 0.00332),
-        (0.6172, -0.13641),
-        (0.5000, -0.20581),
-        (0.4531, -0.21090),
-        (0.2813, -0.15662),
-        (0.1719, -0.10150),
-        (0.1016, -0.06434),
-        (0.0703, -0.04775),
-        (0.0625, -0.04192),
-        (0.0547, -0.03717),
-    ];
-    const GHIA_V_100: [(f64, f64); 15] = [
-        (0.9688, -0.05906),
-        (0.9609, -0.07391),
-        (0.9531, -0.08864),
-        (0.9453, -0.10313),
-        (0.9063, -0.16914),
-        (0.8594, -0.22445),
-        (0.8047, -0.24533),
-        (0.5000, 0.05454),
-        (0.2344, 0.17527),
-        (0.2266, 0.17507),
-        (0.1563, 0.16077),
-        (0.0938, 0.12317),
-        (0.0781, 0.10890),
-        (0.0703, 0.10091),
-        (0.0625, 0.09233),
-    ];
-
-    /// Re = 400 columns of the same tables (the misprinted v at x = 0.9063 skipped).
-    const GHIA_U_400: [f64; 15] = [
-        0.75837, 0.68439, 0.61756, 0.55892, 0.29093, 0.16256, 0.02135, -0.11477, -0.17119,
-        -0.32726, -0.24299, -0.14612, -0.10338, -0.09266, -0.08186,
-    ];
-    const GHIA_V_400: [f64; 15] = [
-        -0.12146,
-        -0.15663,
-        -0.19254,
-        -0.22847,
-        f64::NAN,
-        -0.44993,
-        -0.38598,
-        0.05186,
-        0.30174,
-        0.30203,
-        0.28124,
-        0.22965,
-        0.20920,
-        0.19713,
-        0.18360,
-    ];
-
-    /// Component `comp` along the centreline through the `comp`-faces at coordinate 0.5
-    /// (`comp` 0: u on x = 0.5 as a function of y; 1: v on y = 0.5 as a function of x),
-    /// averaged over z and interpolated linearly between face centres, with the wall
-    /// values (0, and the lid value 1 for u at y = 1) at the ends.
-    fn centreline(ns: &NavierStokes, comp: usize, s: f64) -> f64 {
-        let g = ns.grid();
-        let lay = g.layout();
-        let n = lay.n;
-        let t = 1 - comp; // the coordinate varied along the line
-        let h = g.h()[t];
-        let value = |m: isize| -> f64 {
-            if m < 0 {
-                return 0.0;
-            }
-            if m as usize >= n[t] {
-                return if comp == 0 { 1.0 } else { 0.0 };
-            }
-            let mut sum = 0.0;
-            for k in 0..n[2] {
-                let mut f = [0, 0, k];
-                f[comp] = n[comp] / 2;
-                f[t] = m as usize;
-                sum += ns.u[comp][lay.face(comp, f)];
-            }
-            sum / n[2] as f64
-        };
-        // face centres at (m + 1/2) h; the walls at "m = -1/2" and "m = n - 1/2"
-        let m0 = (s / h - 0.5).floor();
-        let at = |m: isize| -> (f64, f64) {
-            // (position, value), clamping the virtual points onto the walls
-            if m < 0 {
-                (0.0, value(-1))
-            } else if m as usize >= n[t] {
-                (1.0, value(n[t] as isize))
-            } else {
-                ((m as f64 + 0.5) * h, value(m))
-            }
-        };
-        let (x0, v0) = at(m0 as isize);
-        let (x1, v1) = at(m0 as isize + 1);
-        if (x1 - x0).abs() < 1e-15 {
-            v0
-        } else {
-            v0 + (v1 - v0) * (s - x0) / (x1 - x0)
-        }
-    }
 
     /// The cavity of Ghia et al.: unit square in x-y, lid u = (1, 0, 0) at y = 1, no-slip
     /// elsewhere, periodic in z (2 coarse cells), `n x n x n/8` cubic cells (coarse
@@ -661,22 +555,12 @@ mod tests {
         scheme: TimeScheme,
         upwind: f64,
     ) -> (NavierStokes, usize, f64, f64) {
-        let bc = [[Dirichlet; 2], [Dirichlet; 2], [Periodic; 2]];
-        let g = Grid::new(
-            [0.0; 3],
-            [1.0, 1.0, 8.0 / n as f64],
-            [n / 2, n / 2, 2],
-            2,
-            bc,
-        )
-        .unwrap();
         let mut cfg = NsConfig::new(1.0 / re, dt);
         cfg.scheme = scheme;
         cfg.upwind = upwind;
         cfg.momentum_rtol = 1e-6;
         cfg.pressure_rtol = 1e-6;
-        let mut ns = NavierStokes::new(&g, cfg, g.dirichlet_mask());
-        ns.set_side_velocity(1, 1, |_| [1.0, 0.0, 0.0]);
+        let mut ns = ghia::cavity(n, 2, 8.0 / n as f64, cfg);
         let mut secs = 0.0;
         let mut div = 0.0f64;
         for step in 1..=MAX_STEPS {
@@ -698,18 +582,8 @@ mod tests {
         (ns, MAX_STEPS, secs, div)
     }
 
-    fn ghia_deviation(ns: &NavierStokes, u_ref: &[f64], v_ref: &[f64]) -> (f64, f64) {
-        let mut du = 0.0f64;
-        for (k, &(y, _)) in GHIA_U_100.iter().enumerate() {
-            du = du.max((centreline(ns, 0, y) - u_ref[k]).abs());
-        }
-        let mut dv = 0.0f64;
-        for (k, &(x, _)) in GHIA_V_100.iter().enumerate() {
-            if v_ref[k].is_finite() {
-                dv = dv.max((centreline(ns, 1, x) - v_ref[k]).abs());
-            }
-        }
-        (du, dv)
+    fn ghia_deviation(ns: &NavierStokes, u_ref: &[f64; 15], v_ref: &[f64; 15]) -> (f64, f64) {
+        (ghia::u_deviation(ns, u_ref), ghia::v_deviation(ns, v_ref))
     }
 
     /// Lid-driven cavity at Re = 100 against Ghia et al. (1982) on 24 x 24 (x 4 periodic
@@ -802,7 +676,7 @@ mod tests {
     /// Tolerance of the 24 x 24 cavity (see [`cavity_re100_matches_ghia`]).
     const TOL24: f64 = 0.045;
 
-    fn check_cavity(n: usize, re: f64, u_ref: &[f64], v_ref: &[f64], tol: f64) {
+    fn check_cavity(n: usize, re: f64, u_ref: &[f64; 15], v_ref: &[f64; 15], tol: f64) {
         let (ns, steps, secs, div) = cavity(n, re, 1.0);
         let (du, dv) = ghia_deviation(&ns, u_ref, v_ref);
         println!(
@@ -811,7 +685,7 @@ mod tests {
         for (k, &(y, _)) in GHIA_U_100.iter().enumerate() {
             println!(
                 "  y {y:.4}: u {:.5} (Ghia {:.5})",
-                centreline(&ns, 0, y),
+                ghia::centreline_u(&ns, y),
                 u_ref[k]
             );
         }
