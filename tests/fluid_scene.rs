@@ -240,3 +240,58 @@ fn viscous_form_and_time_step_limits() {
     ]);
     assert_eq!(code, 0, "stdout:\n{stdout}\nstderr:\n{stderr}");
 }
+
+/// Bad `[coupling]` input (docs/scene-format.md, `[coupling]`): exit 2 naming the field.
+#[test]
+fn bad_coupling_input_exits_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let base = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sedimentation-single.toml"),
+    )
+    .expect("sedimentation case");
+    let edit = |from: &str, to: &str| {
+        assert!(
+            base.contains(from),
+            "`{from}` not in the sedimentation case"
+        );
+        base.replacen(from, to, 1)
+    };
+    let coupling = "force = \"volume_integral\"";
+    let cases = [
+        (
+            "negative_alpha.toml",
+            edit(coupling, "alpha = -0.1"),
+            "coupling.alpha",
+        ),
+        (
+            "no_rule.toml",
+            edit(coupling, "points = 7"),
+            "coupling.points",
+        ),
+        (
+            "unknown_method.toml",
+            edit(coupling, "force = \"drag_law\""),
+            "coupling.force",
+        ),
+        (
+            "misspelt.toml",
+            edit(coupling, "alpah = 0.1"),
+            "coupling.alpah",
+        ),
+        (
+            // a [coupling] section without particles (nor walls)
+            "no_particles.toml",
+            base[..base.find("[[walls]]").expect("a wall")].to_string(),
+            "coupling",
+        ),
+    ];
+    for (name, text, field) in &cases {
+        let path = write_scene(dir.path(), name, text);
+        let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 2, "{name}: expected exit 2\n{stderr}");
+        assert!(
+            stderr.contains(&format!("`{field}`")),
+            "{name}: the message does not name `{field}`:\n{stderr}"
+        );
+    }
+}
