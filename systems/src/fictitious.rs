@@ -31,6 +31,8 @@ use bevy_ecs::prelude::*;
 use grainflow_components::{CellMarkers, Coupling, FluidFlow, HydroForces, Particles, SimClock};
 use grainflow_fluid::Grid;
 
+use crate::hydrodynamic::add_force;
+
 /// Whether the world couples particles and fluid.
 pub fn has_coupling(w: &World) -> bool {
     w.contains_resource::<Coupling>()
@@ -95,6 +97,7 @@ pub fn velocity_blending(
     }
     marked.clear();
     let mut mask = box_mask.clone();
+    let blending = coupling.alpha.is_some();
     let mut layer: Vec<(u32, u32)> = Vec::new(); // (face, particle row) to blend
     *inside_faces = 0;
     let dt_f = flow.dt;
@@ -140,7 +143,7 @@ pub fn velocity_blending(
                                 for d in 0..3 {
                                     u[d][idx] = v[d];
                                 }
-                            } else if m > 0 && !box_mask[idx] {
+                            } else if blending && m > 0 && !box_mask[idx] {
                                 layer.push((idx as u32, i as u32));
                             }
                         }
@@ -191,7 +194,8 @@ fn blend(
             continue;
         }
         let a = (0..3).rfind(|&a| lay.off[a] <= idx).expect("face index");
-        let x = grid.face_centre(a, lay.face_coords(a, idx - lay.off[a]));
+        let f = lay.face_coords(a, idx - lay.off[a]);
+        let x = grid.face_centre(a, f);
         let i = i as usize;
         let v = rigid_velocity(particles, i, x);
         let slip = (0..3)
@@ -200,23 +204,15 @@ fn blend(
             .sqrt();
         let re_p = 2.0 * particles.radius[i] * slip / coupling.viscosity;
         let phi = (-alpha * re_p).exp();
-        let share = momentum_rate
-            * lay
-                .face_cells(a, lay.face_coords(a, idx - lay.off[a]))
-                .iter()
-                .flatten()
-                .count() as f64;
+        let share = momentum_rate * lay.face_cells(a, f).iter().flatten().count() as f64;
         let df = [0, 1, 2].map(|d| share * phi * (u[d][idx] - v[d]));
         let arm = [0, 1, 2].map(|d| x[d] - particles.position[d][i]);
-        let dt = [
-            arm[1] * df[2] - arm[2] * df[1],
-            arm[2] * df[0] - arm[0] * df[2],
-            arm[0] * df[1] - arm[1] * df[0],
-        ];
+        let (mut force, mut torque) = ([0.0; 3], [0.0; 3]);
+        add_force(&mut force, &mut torque, arm, df);
         for d in 0..3 {
             u[d][idx] = (1.0 - phi) * u[d][idx] + phi * v[d];
-            hydro.blending_force[d][i] += df[d];
-            hydro.blending_torque[d][i] += dt[d];
+            hydro.blending_force[d][i] += force[d];
+            hydro.blending_torque[d][i] += torque[d];
         }
     }
 }

@@ -151,7 +151,8 @@ fn fluid_stress(
     s
 }
 
-fn add_force(f: &mut [f64; 3], t: &mut [f64; 3], arm: [f64; 3], df: [f64; 3]) {
+/// Adds the force `df` acting at lever arm `arm` to the force `f` and torque `t`.
+pub(crate) fn add_force(f: &mut [f64; 3], t: &mut [f64; 3], arm: [f64; 3], df: [f64; 3]) {
     for d in 0..3 {
         f[d] += df[d];
     }
