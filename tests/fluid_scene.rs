@@ -122,15 +122,7 @@ fn bad_fluid_input_exits_2_naming_the_field() {
             "fluid.dt",
         ),
     ];
-    for (name, text, field) in &cases {
-        let path = write_scene(dir.path(), name, text);
-        let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
-        assert_eq!(code, 2, "{name}: expected exit 2\n{stderr}");
-        assert!(
-            stderr.contains(&format!("`{field}`")),
-            "{name}: the message does not name `{field}`:\n{stderr}"
-        );
-    }
+    check_rejects(dir.path(), &cases);
 }
 
 /// A run of the channel (level 1, 10 fluid steps) reports its solver in `summary.json`:
@@ -285,8 +277,13 @@ fn bad_coupling_input_exits_2_naming_the_field() {
             "coupling",
         ),
     ];
-    for (name, text, field) in &cases {
-        let path = write_scene(dir.path(), name, text);
+    check_rejects(dir.path(), &cases);
+}
+
+/// `grainflow check` on each (file name, scene text, field) exits 2 naming the field.
+fn check_rejects(dir: &Path, cases: &[(&str, String, &str)]) {
+    for (name, text, field) in cases {
+        let path = write_scene(dir, name, text);
         let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
         assert_eq!(code, 2, "{name}: expected exit 2\n{stderr}");
         assert!(
