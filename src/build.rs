@@ -449,7 +449,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
     if let Some(mut flow) = flow {
         if let Some((n_s, _)) = scene.subcycling {
             flow.solver.set_project_markers(true);
-            insert_coupling(&mut world, scene, &flow, n_s, particles.len());
+            insert_coupling(&mut world, scene, n_s, particles.len());
         }
         world.insert_resource(flow);
     }
@@ -516,7 +516,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
 /// The coupling data of a scene with a fluid grid and particles: parameters, cell
 /// markers, held hydrodynamic forces, and rotation (hydrodynamic torques turn the
 /// particles even when no contact law does).
-fn insert_coupling(world: &mut World, scene: &Scene, flow: &FluidFlow, n_s: u32, rows: usize) {
+fn insert_coupling(world: &mut World, scene: &Scene, n_s: u32, rows: usize) {
     let spec = scene.coupling.clone().unwrap_or_default();
     let fluid = scene.fluid.as_ref().expect("coupled scene has a fluid");
     world.insert_resource(Coupling {
@@ -530,10 +530,7 @@ fn insert_coupling(world: &mut World, scene: &Scene, flow: &FluidFlow, n_s: u32,
         rule: grainflow_systems::lebedev::lebedev_rule(spec.points).expect("validated rule"),
         subcycles: n_s,
     });
-    world.insert_resource(CellMarkers {
-        box_mask: flow.solver.mask().to_vec(),
-        ..Default::default()
-    });
+    world.insert_resource(CellMarkers::default());
     let mut hydro = HydroForces::default();
     hydro.resize_rows(rows);
     world.insert_resource(hydro);

@@ -43,16 +43,14 @@ pub struct Coupling {
 }
 
 /// Level-set markers of the fluid cells (seed: 0 outer, p boundary, -p inner cell of
-/// particle p = row + 1 of the current particle order), the list of marked cells (so that
-/// clearing costs what marking cost), and the mask of faces whose velocity the box
-/// boundary conditions prescribe (the particles' faces are added to it each fluid step).
+/// particle p = row + 1 of the current particle order), the list of marked cells, and the
+/// faces held at a particle's rigid-body velocity at the last marking (so that clearing
+/// costs what marking cost, not the grid).
 #[derive(Resource, Debug, Clone, Default)]
 pub struct CellMarkers {
     pub marker: Vec<i32>,
     pub marked: Vec<u32>,
-    pub box_mask: Vec<bool>,
-    /// Faces whose centre lies inside a particle at the last marking.
-    pub inside_faces: usize,
+    pub rigid_faces: Vec<u32>,
 }
 
 /// Hydrodynamic force and torque on every particle from the last fluid step, added to

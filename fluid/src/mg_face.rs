@@ -230,12 +230,13 @@ impl FaceMg {
         }
     }
 
-    /// Replaces the finest level's mask of prescribed faces (at least
-    /// [`Grid::dirichlet_mask`]), e.g. after particles moved; the hierarchy is kept.
-    pub fn set_mask(&mut self, mask: Vec<bool>) {
+    /// Sets entries `(face, prescribed)` of the finest level's mask (which must keep at
+    /// least [`Grid::dirichlet_mask`]), e.g. after particles moved; the hierarchy is kept.
+    pub fn update_mask(&mut self, entries: impl Iterator<Item = (usize, bool)>) {
         let fine = self.levels.last_mut().expect("one level at least");
-        assert_eq!(mask.len(), fine.mask.len(), "mask: one flag per face");
-        fine.mask = mask;
+        for (f, m) in entries {
+            fine.mask[f] = m;
+        }
     }
 
     /// Replaces the operators of all levels by `alpha M + nu K` (consistent mass) or

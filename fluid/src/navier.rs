@@ -315,11 +315,29 @@ impl NavierStokes {
         self.project_markers = on;
     }
 
-    /// Replaces the mask of prescribed faces (e.g. after particles moved) in the solver
-    /// and in the finest level of the momentum multigrid (no rebuild).
-    pub fn set_mask(&mut self, mask: Vec<bool>) {
-        self.mg.set_mask(mask.clone());
-        self.mask = mask;
+    /// The faces whose velocity the box's boundary conditions prescribe.
+    pub fn box_mask(&self) -> &[bool] {
+        &self.box_mask
+    }
+
+    /// Moves the extra prescribed faces (e.g. of particles that moved): the faces
+    /// `release` go back to the box's mask, the faces `hold` are prescribed, in the solver
+    /// and in the finest level of the momentum multigrid (no rebuild). Costs what the
+    /// lists hold, not the grid.
+    pub fn move_mask(&mut self, release: &[u32], hold: &[u32]) {
+        for &f in release {
+            self.mask[f as usize] = self.box_mask[f as usize];
+        }
+        for &f in hold {
+            self.mask[f as usize] = true;
+        }
+        let mask = &self.mask;
+        self.mg.update_mask(
+            release
+                .iter()
+                .chain(hold)
+                .map(|&f| (f as usize, mask[f as usize])),
+        );
     }
 
     /// Sets the velocity of all faces on side `side` (0 lower, 1 upper) of direction `d`

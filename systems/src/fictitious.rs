@@ -86,8 +86,7 @@ pub fn velocity_blending(
     let CellMarkers {
         marker,
         marked,
-        box_mask,
-        inside_faces,
+        rigid_faces,
     } = &mut *markers;
     if marker.len() != lay.num_cells() {
         *marker = vec![0; lay.num_cells()];
@@ -96,12 +95,14 @@ pub fn velocity_blending(
         marker[c as usize] = 0;
     }
     marked.clear();
-    let mut mask = box_mask.clone();
+    let released = std::mem::take(rigid_faces);
     let blending = coupling.alpha.is_some();
     let mut layer: Vec<(u32, u32)> = Vec::new(); // (face, particle row) to blend
-    *inside_faces = 0;
     let dt_f = flow.dt;
-    let u = &mut flow.solver.u;
+    // the velocity is taken out of the solver for the marking (and put back below), so
+    // that the solver's masks can be read beside it
+    let mut u = std::mem::take(&mut flow.solver.u);
+    let box_mask = flow.solver.box_mask();
     for i in 0..particles.len() {
         let p = i as i32 + 1;
         let r = particles.radius[i];
@@ -132,18 +133,18 @@ pub fn velocity_blending(
                         for f in [c, lay.upper(a, c)] {
                             let x = grid.face_centre(a, f);
                             let idx = lay.face(a, f);
+                            if box_mask[idx] {
+                                continue; // the box's boundary condition holds
+                            }
                             let inside =
                                 (0..3).map(|d| (x[d] - xp[d]).powi(2)).sum::<f64>() < r * r;
                             if inside {
-                                if !mask[idx] {
-                                    *inside_faces += 1;
-                                }
-                                mask[idx] = true;
+                                rigid_faces.push(idx as u32);
                                 let v = rigid_velocity(&particles, i, x);
                                 for d in 0..3 {
                                     u[d][idx] = v[d];
                                 }
-                            } else if blending && m > 0 && !box_mask[idx] {
+                            } else if blending && m > 0 {
                                 layer.push((idx as u32, i as u32));
                             }
                         }
@@ -152,6 +153,9 @@ pub fn velocity_blending(
             }
         }
     }
+    rigid_faces.sort_unstable();
+    rigid_faces.dedup();
+    flow.solver.move_mask(&released, rigid_faces);
     layer.sort_unstable();
     layer.dedup();
     let HydroForces {
@@ -163,13 +167,12 @@ pub fn velocity_blending(
         col.fill(0.0);
     }
     if let Some(alpha) = coupling.alpha {
+        let mask = flow.solver.mask();
         blend(
-            &grid, &layer, &mask, alpha, &coupling, &particles, dt_f, u, &mut hydro,
+            &grid, &layer, mask, alpha, &coupling, &particles, dt_f, &mut u, &mut hydro,
         );
     }
-    if flow.solver.mask() != mask.as_slice() {
-        flow.solver.set_mask(mask);
-    }
+    flow.solver.u = u;
 }
 
 /// The smooth transition on the `layer` faces (face, particle row) that are not masked,
