@@ -10,7 +10,8 @@
 //!   over the last tenth of the run, with the spread of the speed over it as
 //!   `terminal_velocity_spread`) and `particle_reynolds` `2 r |U| / nu`;
 //! * two free spheres (drafting, kissing, tumbling): `kiss_time` (first time the gap falls
-//!   below 1 % of the mean radius, or its smallest value if it never does) and
+//!   below 1 % of the mean radius; null if it never does, with `smallest_gap` telling
+//!   how close they came) and
 //!   `tumble_time` (first time after the kiss at which the trailing sphere passes the
 //!   leading one along gravity).
 use bevy_ecs::prelude::*;
@@ -236,12 +237,9 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
         };
         let gaps: Vec<f64> = log.state.iter().map(gap).collect();
         let min_gap = gaps.iter().copied().fold(f64::INFINITY, f64::min);
-        // kiss: the first touch (gap below 1 % of the radius), else the smallest gap
+        // kiss: the first touch (gap below 1 % of the radius)
         let touch = 0.01 * mean_r;
-        let kiss_at = gaps
-            .iter()
-            .position(|&g| g < touch)
-            .or_else(|| gaps.iter().position(|&g| g <= min_gap));
+        let kiss_at = gaps.iter().position(|&g| g < touch);
         let kiss_time = kiss_at.map(|k| log.time[k]);
         // leading sphere at the start: the one further along gravity
         let s0 = &log.state[0];
