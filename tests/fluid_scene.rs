@@ -116,6 +116,11 @@ fn bad_fluid_input_exits_2_naming_the_field() {
             "fluid.upwind",
         ),
         (
+            "nan_body_force.toml",
+            edit("scheme = ", "body_force = [1.0, nan, 0.0]\nscheme = "),
+            "fluid.body_force",
+        ),
+        (
             // U dt / h = 1 x 2.0 / 0.2 = 10 > 8, the fractional-step limit
             "cfl_too_large.toml",
             edit("dt = 1.0e-3\nscheme", "dt = 2.0\nscheme"),
