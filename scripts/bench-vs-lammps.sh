@@ -22,6 +22,7 @@ LAMMPS=${LAMMPS:-1}
 LAMMPS_NPS=${LAMMPS_NPS:-1}
 source "$HARNESS/common.sh"
 
+mkdir -p "$WORK/logs"
 cd "$ROOT"
 cargo build --release --quiet
 BIN=$ROOT/target/release/grainflow
