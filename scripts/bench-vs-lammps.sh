@@ -33,7 +33,11 @@ else
   # Only make sure the data files exist.
   WORK=$WORK STATES=$STATES REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
 fi
-lammps_tsv=$(ls -t "$WORK"/logs/results_*.tsv 2>/dev/null | head -1 || true)
+# The newest LAMMPS results with at least one timed run (a REPS=0 call writes a header only).
+lammps_tsv=""
+for f in $(ls -t "$WORK"/logs/results_*.tsv 2>/dev/null || true); do
+  if (( $(wc -l < "$f") > 1 )); then lammps_tsv=$f; break; fi
+done
 
 results="$WORK/logs/grainflow_$(date +%Y%m%d_%H%M%S).tsv"
 printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\n" > "$results"

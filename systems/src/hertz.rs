@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use wide::{f64x4, CmpGt, CmpLt};
 
 use crate::real::Real;
-use crate::walls::wall_distance;
+use crate::walls::wall_contact;
 use crate::{row_chunks, CHUNK};
 
 /// Normal damping law of a scene (all pairs share one: mixing laws is rejected at load,
@@ -349,6 +349,13 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
         .map(|(c, (fx, fy, fz))| {
             let base = c * CHUNK;
             let mut worst = (0.0f64, u32::MAX);
+            // A chunk of free particles (no partner pairs, no wall candidates: a falling
+            // cloud) keeps its row sums untouched.
+            let end = base + fx.len();
+            let partnered = list.rev_start[base] != list.rev_start[end];
+            if !partnered && walls.is_none_or(|(_, wl)| wl.start[base] == wl.start[end]) {
+                return worst;
+            }
             for k in 0..fx.len() {
                 let i = base + k;
                 let (xi, yi, zi) = (x[i], y[i], z[i]);
@@ -365,10 +372,9 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
                     let mut deepest = 0.0f64;
                     for &w in &wl.walls[wl.start[i] as usize..wl.start[i + 1] as usize] {
                         let wall = &walls.list[w as usize];
-                        let (dist, n) = wall_distance(&wall.shape, [xi, yi, zi]);
-                        if dist >= ri {
+                        let Some((dist, n)) = wall_contact(&wall.shape, [xi, yi, zi], ri) else {
                             continue;
-                        }
+                        };
                         let delta = ri - dist;
                         let delta_dot = -(vx[i] * n[0] + vy[i] * n[1] + vz[i] * n[2]);
                         let p = table.get(wall.material, mat[i]);

@@ -48,6 +48,7 @@ pub fn verlet_list(
         neighbours: std::mem::take(&mut list.neighbours),
     });
     let sort = settings.sort_every > 0 && list.builds.is_multiple_of(settings.sort_every as u64);
+    let cell_sort = tracing::info_span!("cell_sort").entered();
     let grid = CellGrid::new(&particles, settings.skin);
     let mut cell_of = grid.cell_indices(&particles);
     let order = grid.counting_sort(&cell_of);
@@ -56,16 +57,17 @@ pub fn verlet_list(
         cell_of = order.members.iter().map(|&k| cell_of[k as usize]).collect();
         reorder.perm = Some(order.members);
         list.sorts += 1;
-        (0..n as u32).collect()
+        None
     } else {
-        order.members
+        Some(order.members)
     };
+    drop(cell_sort);
     build_half_list(
         &particles,
         &grid,
         &cell_of,
         &order.cell_start,
-        &members,
+        members.as_deref(),
         settings.skin,
         &mut list,
     );
@@ -224,12 +226,15 @@ impl CellGrid {
 /// Build the half list: for each particle, the others of higher row index within
 /// `r_i + r_j + skin`, scanned over the 27 surrounding cells in cell order; then the owner
 /// of every pair and the reverse index (a counting sort of the pairs by partner).
+/// `members` lists the rows of each cell (`cell_start` order); `None` when the rows are
+/// themselves in cell order (just re-sorted): a cell's members are then a range of rows,
+/// and the scan starts past row `i`, skipping the lower half of the stencil unread.
 fn build_half_list(
     particles: &Particles,
     grid: &CellGrid,
     cell_of: &[u32],
     cell_start: &[u32],
-    members: &[u32],
+    members: Option<&[u32]>,
     skin: f64,
     list: &mut VerletList,
 ) {
@@ -237,6 +242,7 @@ fn build_half_list(
     let [x, y, z] = &particles.position;
     let r = &particles.radius;
     let dims = grid.dims;
+    let scan = tracing::info_span!("pair_scan").entered();
     let rows: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
@@ -247,6 +253,13 @@ fn build_half_list(
                 let before = nbrs.len();
                 let [cx, cy, cz] = grid.coords(cell_of[i]);
                 let (xi, yi, zi, ri) = (x[i], y[i], z[i], r[i] + skin);
+                let mut consider = |j: usize| {
+                    let (dx, dy, dz) = (xi - x[j], yi - y[j], zi - z[j]);
+                    let cut = ri + r[j];
+                    if dx * dx + dy * dy + dz * dz < cut * cut {
+                        nbrs.push(j as u32);
+                    }
+                };
                 for gz in cz.saturating_sub(1)..(cz + 2).min(dims[2]) {
                     for gy in cy.saturating_sub(1)..(cy + 2).min(dims[1]) {
                         let row = dims[0] * (gy + dims[1] * gz);
@@ -254,13 +267,13 @@ fn build_half_list(
                         let c1 = row + (cx + 1).min(dims[0] - 1);
                         // Cells c0..=c1 are consecutive: one contiguous run of members.
                         let (m0, m1) = (cell_start[c0] as usize, cell_start[c1 + 1] as usize);
-                        for &j in &members[m0..m1] {
-                            let j = j as usize;
-                            let (dx, dy, dz) = (xi - x[j], yi - y[j], zi - z[j]);
-                            let cut = ri + r[j];
-                            if j > i && dx * dx + dy * dy + dz * dz < cut * cut {
-                                nbrs.push(j as u32);
-                            }
+                        match members {
+                            None => (m0.max(i + 1)..m1).for_each(&mut consider),
+                            Some(m) => m[m0..m1]
+                                .iter()
+                                .map(|&j| j as usize)
+                                .filter(|&j| j > i)
+                                .for_each(&mut consider),
                         }
                     }
                 }
@@ -271,6 +284,8 @@ fn build_half_list(
             (nbrs, counts)
         })
         .collect();
+    drop(scan);
+    let _span = tracing::info_span!("list_index").entered();
     list.start.clear();
     list.start.reserve(n + 1);
     list.start.push(0);

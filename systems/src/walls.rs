@@ -14,12 +14,23 @@ use crate::CHUNK;
 /// target in the (radius, height) half-plane through `p`.
 #[inline(always)]
 pub fn wall_distance(shape: &WallShape, p: [f64; 3]) -> (f64, [f64; 3]) {
+    // Only an infinite distance (an infinite coordinate) reaches infinity; NaN passes.
+    wall_contact(shape, p, f64::INFINITY).unwrap_or((f64::INFINITY, [0.0; 3]))
+}
+
+/// [`wall_distance`] when the distance is below `reach` (a sphere's radius: a contact),
+/// else `None`; the normal, with its divisions, is computed only for a contact.
+#[inline(always)]
+pub fn wall_contact(shape: &WallShape, p: [f64; 3], reach: f64) -> Option<(f64, [f64; 3])> {
     match *shape {
         WallShape::Plane { point, normal } => {
             let s = (p[0] - point[0]) * normal[0]
                 + (p[1] - point[1]) * normal[1]
                 + (p[2] - point[2]) * normal[2];
-            (s, normal)
+            if s >= reach {
+                return None;
+            }
+            Some((s, normal))
         }
         WallShape::Revolution {
             origin,
@@ -34,18 +45,21 @@ pub fn wall_distance(shape: &WallShape, p: [f64; 3]) -> (f64, [f64; 3]) {
             let radial = [q[0] - h * axis[0], q[1] - h * axis[1], q[2] - h * axis[2]];
             let rho =
                 (radial[0] * radial[0] + radial[1] * radial[1] + radial[2] * radial[2]).sqrt();
-            let e_r = if rho > 0.0 {
-                [radial[0] / rho, radial[1] / rho, radial[2] / rho]
-            } else {
-                any_perpendicular(axis)
-            };
             let (dr, dh) = (r1 - r0, h1 - h0);
             let len2 = dr * dr + dh * dh;
             let t = (((rho - r0) * dr + (h - h0) * dh) / len2).clamp(0.0, 1.0);
             let (cr, ch) = (r0 + t * dr, h0 + t * dh);
             let (gr, gh) = (rho - cr, h - ch);
             let dist = (gr * gr + gh * gh).sqrt();
-            if dist > 0.0 {
+            if dist >= reach {
+                return None;
+            }
+            let e_r = if rho > 0.0 {
+                [radial[0] / rho, radial[1] / rho, radial[2] / rho]
+            } else {
+                any_perpendicular(axis)
+            };
+            Some(if dist > 0.0 {
                 let n = [
                     (gr * e_r[0] + gh * axis[0]) / dist,
                     (gr * e_r[1] + gh * axis[1]) / dist,
@@ -54,7 +68,7 @@ pub fn wall_distance(shape: &WallShape, p: [f64; 3]) -> (f64, [f64; 3]) {
                 (dist, n)
             } else {
                 (0.0, [-e_r[0], -e_r[1], -e_r[2]])
-            }
+            })
         }
     }
 }
@@ -140,7 +154,7 @@ pub fn wall_list(
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let before = ids.len();
                 for (k, shape) in &active {
-                    if wall_distance(shape, [x[i], y[i], z[i]]).0 < r[i] + settings.skin {
+                    if wall_contact(shape, [x[i], y[i], z[i]], r[i] + settings.skin).is_some() {
                         ids.push(*k);
                     }
                 }
