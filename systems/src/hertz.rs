@@ -195,6 +195,20 @@ fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
     f64x4::new([col[js[0]], col[js[1]], col[js[2]], col[js[3]]])
 }
 
+/// The first `out.len()` (1 to 4) lanes of `v` into `out`, with fixed-size stores (a
+/// copy of variable length would call `memcpy`).
+#[inline(always)]
+fn store_lanes(out: &mut [f64], v: f64x4) {
+    let a = v.to_array();
+    match out {
+        [o0, o1, o2, o3] => (*o0, *o1, *o2, *o3) = (a[0], a[1], a[2], a[3]),
+        [o0, o1, o2] => (*o0, *o1, *o2) = (a[0], a[1], a[2]),
+        [o0, o1] => (*o0, *o1) = (a[0], a[1]),
+        [o0] => *o0 = a[0],
+        _ => unreachable!("a lane group holds one to four pairs"),
+    }
+}
+
 /// Sum of the lanes in a fixed order.
 #[inline(always)]
 fn lane_sum(v: f64x4) -> f64 {
@@ -273,7 +287,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
                     let touching = d2.cmp_lt(rs * rs) & row_mask[group.len() - 1];
                     let out = &mut scale[first - pair_base..first - pair_base + group.len()];
                     if touching.none() {
-                        out.fill(0.0);
+                        store_lanes(out, zero);
                         continue;
                     }
                     let d = d2.sqrt();
@@ -300,7 +314,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
                     sx += s * dx;
                     sy += s * dy;
                     sz += s * dz;
-                    out.copy_from_slice(&s.to_array()[..group.len()]);
+                    store_lanes(out, s);
                     deepest = deepest.max(touching.blend(delta / ri.min(rj), zero));
                 }
                 let ratio = deepest.to_array().into_iter().fold(0.0, f64::max);
