@@ -233,6 +233,24 @@ impl Tally {
     }
 }
 
+/// Work vectors of [`NavierStokes::substep`] and [`NavierStokes::project`]; each is
+/// overwritten (or zeroed) before it is read.
+#[derive(Default)]
+struct Scratch {
+    /// Right-hand side of the momentum problem, per component.
+    rhs: [Vec<f64>; 3],
+    /// Convecting velocity `u*`.
+    ustar: [Vec<f64>; 3],
+    /// An operator applied to one component.
+    face: Vec<f64>,
+    /// `B q`, per component.
+    gradient: [Vec<f64>; 3],
+    /// `B^T u~ / k_s` per cell.
+    divergence: Vec<f64>,
+    /// Pressure increment per cell.
+    q: Vec<f64>,
+}
+
 /// Transient incompressible Navier-Stokes solver on one grid level.
 pub struct NavierStokes {
     grid: Grid,
@@ -255,6 +273,12 @@ pub struct NavierStokes {
     kt: Option<TransposeStiffness>,
     /// Velocity before the last substep and that substep's length (for `u*`).
     prev: Option<([Vec<f64>; 3], f64)>,
+    /// The explicit operator `M_l/0 + nu K + N(u)` of the last substep, kept for its
+    /// convection tables (refilled in place, not allocated afresh each substep).
+    explicit: Option<FaceOperator>,
+    /// Work vectors of a substep, kept from one to the next: a fresh vector of this size
+    /// is fresh pages, and their faults and zeroing cost about a fifth of a step.
+    scratch: Scratch,
     /// Time reached.
     pub time: f64,
     /// Steps done.
@@ -286,6 +310,8 @@ impl NavierStokes {
             u: [0, 1, 2].map(|_| vec![0.0; nf]),
             p: vec![0.0; grid.num_cells()],
             prev: None,
+            explicit: None,
+            scratch: Scratch::default(),
             time: 0.0,
             steps: 0,
         }
@@ -428,64 +454,79 @@ impl NavierStokes {
         let g = self.grid.clone();
         let nf = g.num_faces();
         let nu = self.cfg.nu;
+        let mut sc = std::mem::take(&mut self.scratch);
+        sc.face.resize(nf, 0.0);
         // right-hand side [M_l - w_e A(u_old)] u_old - k_s B p_old, scaled by 1/w_i
-        let mut base: [Vec<f64>; 3] =
-            [0, 1, 2].map(|c| self.u[c].iter().zip(&self.ml).map(|(u, m)| m * u).collect());
+        for (rc, uc) in sc.rhs.iter_mut().zip(&self.u) {
+            rc.clear();
+            rc.extend(uc.iter().zip(&self.ml).map(|(u, m)| m * u));
+        }
         if we > 0.0 {
-            let explicit = FaceOperator::lumped(&g, 0.0, nu)
-                .with_upwind_viscosity(nu / self.cfg.upwind)
+            let explicit = self
+                .explicit
+                .take()
+                .unwrap_or_else(|| {
+                    FaceOperator::lumped(&g, 0.0, nu).with_upwind_viscosity(nu / self.cfg.upwind)
+                })
                 .with_convection(&g, [&self.u[0], &self.u[1], &self.u[2]]);
-            let mut au = vec![0.0; nf];
-            for (uc, rc) in self.u.iter().zip(base.iter_mut()) {
-                explicit.apply(uc, &mut au);
-                rc.iter_mut().zip(&au).for_each(|(r, a)| *r -= we * a);
+            for (uc, rc) in self.u.iter().zip(sc.rhs.iter_mut()) {
+                explicit.apply(uc, &mut sc.face);
+                rc.iter_mut().zip(&sc.face).for_each(|(r, a)| *r -= we * a);
             }
+            self.explicit = Some(explicit);
             if let Some(kt) = &self.kt {
-                let [b0, b1, b2] = &mut base;
+                let [b0, b1, b2] = &mut sc.rhs;
                 kt.apply_add(-we * nu, [&self.u[0], &self.u[1], &self.u[2]], [b0, b1, b2]);
             }
         }
         // a constant body force (acceleration) f: + k_s M_l f
         if self.cfg.body_force != [0.0; 3] {
-            for (rc, f) in base.iter_mut().zip(self.cfg.body_force) {
+            for (rc, f) in sc.rhs.iter_mut().zip(self.cfg.body_force) {
                 rc.iter_mut()
                     .zip(&self.ml)
                     .for_each(|(r, m)| *r += ks * m * f);
             }
         }
         // the convecting velocity u*
-        let ustar: [Vec<f64>; 3] = match (&self.prev, extrapolate) {
-            (Some((up, kp)), true) => {
-                let s = ks / kp;
-                [0, 1, 2].map(|c| {
-                    self.u[c]
-                        .iter()
-                        .zip(&up[c])
-                        .map(|(u, v)| u + s * (u - v))
-                        .collect()
-                })
+        for (c, us) in sc.ustar.iter_mut().enumerate() {
+            us.clear();
+            match (&self.prev, extrapolate) {
+                (Some((up, kp)), true) => {
+                    let s = ks / kp;
+                    us.extend(self.u[c].iter().zip(&up[c]).map(|(u, v)| u + s * (u - v)));
+                }
+                _ => us.extend_from_slice(&self.u[c]),
             }
-            _ => self.u.clone(),
-        };
-        let old = self.u.clone();
+        }
+        // u before this substep, in the vectors of the one before
+        let mut old = self
+            .prev
+            .take()
+            .map_or_else(|| [Vec::new(), Vec::new(), Vec::new()], |(v, _)| v);
+        for (o, uc) in old.iter_mut().zip(&self.u) {
+            o.clone_from(uc);
+        }
         boundary(&mut self.u);
-        let mut rhs = base;
         {
-            let [r0, r1, r2] = &mut rhs;
+            let [r0, r1, r2] = &mut sc.rhs;
             add_gradient(&g, &self.p, -ks, [r0, r1, r2]);
             if let Some(kt) = &self.kt {
                 // the implicit share w_i nu (K + K_T) u_new as w_i nu (2 K u_new - (K - K_T) u*)
                 // (see the module docs): + w_i nu (K - K_T) u* on the right
-                kt.apply_add(-wi * nu, [&ustar[0], &ustar[1], &ustar[2]], [r0, r1, r2]);
+                kt.apply_add(
+                    -wi * nu,
+                    [&sc.ustar[0], &sc.ustar[1], &sc.ustar[2]],
+                    [r0, r1, r2],
+                );
                 let stiff = FaceOperator::lumped(&g, 0.0, nu);
-                let mut ku = vec![0.0; nf];
-                for (uc, rc) in ustar.iter().zip([r0, r1, r2]) {
-                    stiff.apply(uc, &mut ku);
-                    rc.iter_mut().zip(&ku).for_each(|(r, a)| *r += wi * a);
+                for (uc, rc) in sc.ustar.iter().zip([r0, r1, r2]) {
+                    stiff.apply(uc, &mut sc.face);
+                    rc.iter_mut().zip(&sc.face).for_each(|(r, a)| *r += wi * a);
                 }
             }
         }
-        rhs.iter_mut()
+        sc.rhs
+            .iter_mut()
             .for_each(|r| r.iter_mut().for_each(|v| *v /= wi));
         if self.kt.is_some() {
             self.mg
@@ -494,13 +535,15 @@ impl NavierStokes {
             self.mg
                 .set_operator_split(1.0 / wi, nu, nu / self.cfg.upwind);
         }
-        self.mg.set_convection([&ustar[0], &ustar[1], &ustar[2]]);
-        for (uc, rc) in self.u.iter_mut().zip(&rhs) {
+        self.mg
+            .set_convection([&sc.ustar[0], &sc.ustar[1], &sc.ustar[2]]);
+        for (uc, rc) in self.u.iter_mut().zip(&sc.rhs) {
             let rep = self
                 .mg
                 .solve(uc, rc, self.cfg.momentum_rtol, self.cfg.max_cycles);
             mom.add(&rep);
         }
+        self.scratch = sc;
         self.project(ks, wi, pre);
         self.prev = Some((old, ks));
     }
@@ -510,19 +553,29 @@ impl NavierStokes {
     fn project(&mut self, ks: f64, wi: f64, pre: &mut Tally) {
         let g = &self.grid;
         let nf = g.num_faces();
+        let Scratch {
+            gradient: bq,
+            divergence: b,
+            q,
+            ..
+        } = &mut self.scratch;
         // P q = B^T u~ / k_s = -D u~ / k_s
-        let mut b = vec![0.0; g.num_cells()];
-        divergence(g, [&self.u[0], &self.u[1], &self.u[2]], &mut b);
+        b.resize(g.num_cells(), 0.0);
+        divergence(g, [&self.u[0], &self.u[1], &self.u[2]], b);
         b.iter_mut().for_each(|v| *v = -*v / ks);
-        let mut q = vec![0.0; g.num_cells()];
+        q.clear();
+        q.resize(g.num_cells(), 0.0);
         let rep = self
             .pmg
-            .solve(&mut q, &b, self.cfg.pressure_rtol, self.cfg.max_cycles);
+            .solve(q, b, self.cfg.pressure_rtol, self.cfg.max_cycles);
         pre.add(&rep);
-        let mut bq = [0, 1, 2].map(|_| vec![0.0; nf]);
+        for c in bq.iter_mut() {
+            c.clear();
+            c.resize(nf, 0.0);
+        }
         {
-            let [b0, b1, b2] = &mut bq;
-            add_gradient(g, &q, 1.0, [b0, b1, b2]);
+            let [b0, b1, b2] = bq;
+            add_gradient(g, q, 1.0, [b0, b1, b2]);
         }
         // Box-side Dirichlet faces are never corrected; marker faces only when
         // `project_markers` is set (see [`NavierStokes::set_project_markers`]).
@@ -531,7 +584,7 @@ impl NavierStokes {
         } else {
             &self.mask
         };
-        for (uc, bc) in self.u.iter_mut().zip(&bq) {
+        for (uc, bc) in self.u.iter_mut().zip(bq.iter()) {
             for (((u, b), m), &fixed) in uc.iter_mut().zip(bc).zip(&self.ml).zip(fixed_mask) {
                 if !fixed {
                     *u -= ks * b / m;
@@ -542,8 +595,8 @@ impl NavierStokes {
         let visc = 0.5 * wi * self.cfg.nu / g.cell_volume();
         self.p
             .iter_mut()
-            .zip(&q)
-            .zip(&b)
+            .zip(q.iter())
+            .zip(b.iter())
             .for_each(|((p, q), b)| *p += q + visc * b);
     }
 }

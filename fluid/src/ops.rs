@@ -100,7 +100,7 @@ pub struct FaceOperator {
     /// With convection, per face: the diagonal entry, then per adjacent cell (in the order
     /// minus, plus of the existing cells) the four fluxes `d` and the four weights `e` of
     /// the pairs `(b0 lower, b0 upper, b1 lower, b1 upper)`, signed as seen from the
-    /// face (see [`FaceOperator::face_table`]).
+    /// face (see [`FaceOperator::fill_face_table`]).
     faces: Vec<[f64; 17]>,
 }
 
@@ -151,6 +151,12 @@ impl Convection {
     /// The convection of the velocity `w` (face values of its three components) on `grid`
     /// with viscosity `nu` (for the Samarskij weights; `nu = 0` gives full upwind).
     pub fn new(grid: &Grid, nu: f64, w: [&[f64]; 3]) -> Self {
+        Self::new_in(Vec::new(), grid, nu, w)
+    }
+
+    /// [`Convection::new`] in the storage `cells` of an earlier one (no fresh allocation,
+    /// hence no page faults, when the grid is the same: one convection per substep).
+    pub fn new_in(mut cells: Vec<[f64; 24]>, grid: &Grid, nu: f64, w: [&[f64]; 3]) -> Self {
         let lay = grid.layout();
         let h = grid.h();
         let area = [0, 1, 2].map(|a| grid.face_area(a));
@@ -161,7 +167,8 @@ impl Convection {
             let dist = (h[a] * h[a] + h[b] * h[b]).sqrt() / 2.0;
             coupling[pair_index(a, b)] = amag / dist;
         }
-        let mut cells = vec![[0.0; 24]; lay.num_cells()];
+        // Every entry is written below.
+        cells.resize(lay.num_cells(), [0.0; 24]);
         cells
             .par_iter_mut()
             .with_min_len(MIN_TASK / 24)
@@ -240,9 +247,13 @@ impl FaceOperator {
     }
 
     /// Adds the linearised convection `N(w)` of the velocity `w` (replacing any earlier).
+    /// The tables of an earlier convection are refilled in place.
     pub fn with_convection(mut self, grid: &Grid, w: [&[f64]; 3]) -> Self {
-        let conv = Convection::new(grid, self.nu, w);
-        self.faces = self.face_table(&conv);
+        let cells = self.conv.take().map(|c| c.cells).unwrap_or_default();
+        let conv = Convection::new_in(cells, grid, self.nu, w);
+        let mut faces = std::mem::take(&mut self.faces);
+        self.fill_face_table(&conv, &mut faces);
+        self.faces = faces;
         self.conv = Some(conv);
         self
     }
@@ -250,15 +261,16 @@ impl FaceOperator {
     /// The per-face convection table (see the field `faces`): the diagonal entry computed
     /// with exactly the operations of [`FaceOperator::row`] and the signed `d`, `e` of
     /// the face's pairs, so that the row loops read one contiguous record per face.
-    fn face_table(&self, conv: &Convection) -> Vec<[f64; 17]> {
+    fn fill_face_table(&self, conv: &Convection, out: &mut Vec<[f64; 17]>) {
         let lay = &self.layout;
-        let mut out = vec![[0.0; 17]; lay.num_faces()];
+        out.resize(lay.num_faces(), [0.0; 17]);
         for a in 0..3 {
             out[lay.off[a]..lay.off[a + 1]]
                 .par_iter_mut()
                 .with_min_len(MIN_TASK / 17)
                 .enumerate()
                 .for_each(|(idx, o)| {
+                    *o = [0.0; 17];
                     let f = lay.face_coords(a, idx);
                     let mut diag = 0.0;
                     let mut slot = 0;
@@ -281,7 +293,6 @@ impl FaceOperator {
                     o[0] = diag;
                 });
         }
-        out
     }
 
     /// Whether the operator carries a (non-symmetric) convection part.
