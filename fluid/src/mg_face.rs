@@ -255,7 +255,10 @@ impl FaceMg {
     /// Samarskij weights of a later [`FaceMg::set_convection`] computed with `nu_upwind`.
     pub fn set_operator_split(&mut self, alpha: f64, nu_stiff: f64, nu_upwind: f64) {
         for l in &mut self.levels {
-            l.op = FaceOperator::lumped(&l.grid, alpha, nu_stiff).with_upwind_viscosity(nu_upwind);
+            let op =
+                FaceOperator::lumped(&l.grid, alpha, nu_stiff).with_upwind_viscosity(nu_upwind);
+            let old = std::mem::replace(&mut l.op, op);
+            l.op.recycle(old);
         }
     }
 

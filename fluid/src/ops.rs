@@ -102,6 +102,9 @@ pub struct FaceOperator {
     /// the pairs `(b0 lower, b0 upper, b1 lower, b1 upper)`, signed as seen from the
     /// face (see [`FaceOperator::fill_face_table`]).
     faces: Vec<[f64; 17]>,
+    /// Storage of a convection dropped by [`FaceOperator::recycle`], for the next
+    /// [`FaceOperator::with_convection`]; never read as data.
+    spare_cells: Vec<[f64; 24]>,
 }
 
 /// Index of the unordered family pair `{a, b}` (`a != b`): `{x,y}` 0, `{x,z}` 1, `{y,z}` 2.
@@ -224,6 +227,7 @@ impl FaceOperator {
             nu,
             conv: None,
             faces: Vec::new(),
+            spare_cells: Vec::new(),
         }
     }
 
@@ -249,13 +253,24 @@ impl FaceOperator {
     /// Adds the linearised convection `N(w)` of the velocity `w` (replacing any earlier).
     /// The tables of an earlier convection are refilled in place.
     pub fn with_convection(mut self, grid: &Grid, w: [&[f64]; 3]) -> Self {
-        let cells = self.conv.take().map(|c| c.cells).unwrap_or_default();
+        let cells = self
+            .conv
+            .take()
+            .map_or_else(|| std::mem::take(&mut self.spare_cells), |c| c.cells);
         let conv = Convection::new_in(cells, grid, self.nu, w);
         let mut faces = std::mem::take(&mut self.faces);
         self.fill_face_table(&conv, &mut faces);
         self.faces = faces;
         self.conv = Some(conv);
         self
+    }
+
+    /// Takes over the table storage of `old` (an operator this one replaces on the same
+    /// grid), so that a convection added later refills it instead of allocating: the
+    /// operator itself, with or without convection, is unchanged.
+    pub fn recycle(&mut self, old: FaceOperator) {
+        self.faces = old.faces;
+        self.spare_cells = old.conv.map_or(old.spare_cells, |c| c.cells);
     }
 
     /// The per-face convection table (see the field `faces`): the diagonal entry computed
