@@ -55,17 +55,41 @@ pub fn surface_point_force(
 /// `R = (nu K + N(u)) u + B p` (density 1): the force per face that the fluid exerts
 /// against a prescribed velocity.
 pub fn momentum_residual(grid: &Grid, u: [&[f64]; 3], p: &[f64], nu: f64) -> [Vec<f64>; 3] {
-    let op = FaceOperator::lumped(grid, 0.0, nu).with_convection(grid, u);
-    let nf = grid.num_faces();
-    let mut r = [vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]];
-    for (uc, rc) in u.iter().zip(r.iter_mut()) {
-        op.apply(uc, rc);
+    let mut work = ResidualWork::default();
+    work.compute(grid, u, p, nu);
+    work.residual
+}
+
+/// [`momentum_residual`] with its operator (and convection tables) and its vectors kept
+/// from one fluid step to the next: refilled in place, not allocated afresh (fresh pages
+/// cost their faults and zeroing at every sampling).
+#[derive(Default)]
+pub struct ResidualWork {
+    operator: Option<FaceOperator>,
+    residual: [Vec<f64>; 3],
+}
+
+impl ResidualWork {
+    /// Computes the residual of the flow (`nu` the same at every call) into
+    /// `self.residual` and returns it.
+    pub fn compute(&mut self, grid: &Grid, u: [&[f64]; 3], p: &[f64], nu: f64) -> &[Vec<f64>; 3] {
+        let op = self
+            .operator
+            .take()
+            .unwrap_or_else(|| FaceOperator::lumped(grid, 0.0, nu))
+            .with_convection(grid, u);
+        let nf = grid.num_faces();
+        for (uc, rc) in u.iter().zip(self.residual.iter_mut()) {
+            rc.resize(nf, 0.0);
+            op.apply(uc, rc);
+        }
+        self.operator = Some(op);
+        {
+            let [r0, r1, r2] = &mut self.residual;
+            add_gradient(grid, p, 1.0, [r0, r1, r2]);
+        }
+        &self.residual
     }
-    {
-        let [r0, r1, r2] = &mut r;
-        add_gradient(grid, p, 1.0, [r0, r1, r2]);
-    }
-    r
 }
 
 /// Force and torque on a sphere by the volume integral of the fictitious boundary
@@ -171,6 +195,7 @@ pub fn hydrodynamic_sampling(
     mut hydro: ResMut<HydroForces>,
     mut particles: ResMut<Particles>,
     mut rotation: ResMut<Rotation>,
+    mut work: Local<ResidualWork>,
 ) {
     let _span = tracing::info_span!("hydrodynamic_sampling").entered();
     if flow.stats.steps > hydro.sampled_steps {
@@ -178,7 +203,7 @@ pub fn hydrodynamic_sampling(
         let ns = &flow.solver;
         let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
         let residual = (coupling.method == ForceMethod::VolumeIntegral)
-            .then(|| momentum_residual(grid, u, p, coupling.viscosity));
+            .then(|| work.compute(grid, u, p, coupling.viscosity));
         let ft: Vec<([f64; 3], [f64; 3])> = (0..particles.len())
             .into_par_iter()
             .map(|i| {
