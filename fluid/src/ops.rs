@@ -152,13 +152,9 @@ pub struct Convection {
 
 impl Convection {
     /// The convection of the velocity `w` (face values of its three components) on `grid`
-    /// with viscosity `nu` (for the Samarskij weights; `nu = 0` gives full upwind).
-    pub fn new(grid: &Grid, nu: f64, w: [&[f64]; 3]) -> Self {
-        Self::new_in(Vec::new(), grid, nu, w)
-    }
-
-    /// [`Convection::new`] in the storage `cells` of an earlier one (no fresh allocation,
-    /// hence no page faults, when the grid is the same: one convection per substep).
+    /// with viscosity `nu` (for the Samarskij weights; `nu = 0` gives full upwind), built
+    /// in `cells`: the storage of an earlier convection (no fresh allocation, hence no page
+    /// faults, on the same grid: one convection per substep), or an empty vector.
     pub fn new_in(mut cells: Vec<[f64; 24]>, grid: &Grid, nu: f64, w: [&[f64]; 3]) -> Self {
         let lay = grid.layout();
         let h = grid.h();
