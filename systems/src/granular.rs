@@ -22,14 +22,14 @@ use grainflow_components::{
     SimClock, TangentialStiffness, VerletList, WallHistory, WallList, Walls,
 };
 use rayon::prelude::*;
-use wide::{f64x4, CmpGt, CmpLt};
+use wide::{f64x4, CmpGe, CmpGt, CmpLt};
 
 use crate::friction::coulomb_tangential_force;
 use crate::hertz::{hertz_normal_force, ConstantDamping, NormalDamping, RestitutionDamping};
 use crate::jkr::{
     jkr_contact_radius, jkr_critical_separation, jkr_equilibrium_radius, jkr_force_at_radius,
 };
-use crate::real::{Real, V3};
+use crate::real::{gather, group_masks, Real, V3};
 use crate::rolling::{rolling_resistance_force, rolling_velocity};
 use crate::walls::wall_distance;
 use crate::{row_chunks, CHUNK};
@@ -295,9 +295,6 @@ type PairResult = [f64; 9];
 
 const LANES: usize = ContactHistory::LANES;
 
-/// Blocks of four pairs per parallel work item.
-const BLOCKS: usize = CHUNK / LANES;
-
 #[allow(clippy::too_many_arguments)]
 pub fn granular_contact(
     mut pair_results: Local<Vec<PairResult>>,
@@ -357,19 +354,44 @@ fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
     }
 }
 
-/// Gather `col[js[0..4]]` into lanes.
 #[inline(always)]
-fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
-    f64x4::new(js.map(|j| col[j]))
+fn gather3(cols: &[&[f64]; 3], js: &[usize; 4]) -> V3<f64x4> {
+    V3::new(
+        gather(cols[0], js),
+        gather(cols[1], js),
+        gather(cols[2], js),
+    )
 }
 
-#[inline(always)]
-fn gather3(cols: &[Vec<f64>; 3], js: &[usize; 4]) -> V3<f64x4> {
-    V3::new(
-        gather(&cols[0], js),
-        gather(&cols[1], js),
-        gather(&cols[2], js),
-    )
+/// The particle columns of the pair pass, each cut to the particle count `n`: a lane's
+/// index checked once against `n` needs no bounds check in the gathers that follow.
+struct Rows<'a> {
+    n: usize,
+    position: [&'a [f64]; 3],
+    velocity: [&'a [f64]; 3],
+    angular_velocity: [&'a [f64]; 3],
+    radius: &'a [f64],
+    inv_mass: &'a [f64],
+    material: &'a [u16],
+    id: &'a [u32],
+}
+
+impl<'a> Rows<'a> {
+    #[inline(always)]
+    fn of(p: &'a Particles) -> Self {
+        let n = p.len();
+        let cut = |c: &'a [Vec<f64>; 3]| [&c[0][..n], &c[1][..n], &c[2][..n]];
+        Self {
+            n,
+            position: cut(&p.position),
+            velocity: cut(&p.velocity),
+            angular_velocity: cut(&p.angular_velocity),
+            radius: &p.radius[..n],
+            inv_mass: &p.inv_mass[..n],
+            material: &p.material[..n],
+            id: &p.id[..n],
+        }
+    }
 }
 
 #[inline(always)]
@@ -394,25 +416,43 @@ fn both_passes<D: NormalDamping>(
         .collect();
     let kernel = Kernel {
         table: &table,
+        one: (m == 1).then(|| Coefficients::splat(&table[0])),
         materials: m,
         layout: &laws.layout,
         dt,
     };
-    let pairs_worst = {
-        let _span = tracing::info_span!("pair_contacts").entered();
-        kernel.pair_contacts::<D>(particles, list, results, history)
-    };
     let mut force = std::mem::take(&mut particles.force);
-    let walls_worst = {
-        let _span = tracing::info_span!("contact_sums_and_walls").entered();
-        kernel.sums_and_walls::<D>(particles, list, results, [&mut force, torque], walls)
-    };
+    let worst = kernel.contacts::<D>(
+        particles,
+        list,
+        results,
+        history,
+        [&mut force, torque],
+        walls,
+    );
     particles.force = force;
-    deeper(pairs_worst, walls_worst)
+    worst
+}
+
+/// The wall-history rows of each chunk of particles, or `None`s without walls.
+fn wall_history_chunks<'a>(
+    walls: Option<&'a mut (&Walls, &WallList, &mut WallHistory)>,
+    n: usize,
+    width: usize,
+) -> Vec<Option<&'a mut [f64]>> {
+    match walls {
+        Some((_, l, h)) => row_chunks(&mut h.values, &l.start, n, width)
+            .into_iter()
+            .map(Some)
+            .collect(),
+        None => (0..n.div_ceil(CHUNK)).map(|_| None).collect(),
+    }
 }
 
 struct Kernel<'a> {
     table: &'a [Coefficients<f64>],
+    /// The coefficients in lanes when there is one material.
+    one: Option<Coefficients<f64x4>>,
     materials: usize,
     layout: &'a HistoryLayout,
     dt: f64,
@@ -424,246 +464,270 @@ impl Kernel<'_> {
         &self.table[a as usize * self.materials + b as usize]
     }
 
-    /// Pass 1: every listed pair, in blocks of four consecutive pairs (one per lane,
-    /// whatever their rows), with its history block. Returns the largest overlap over
-    /// the smaller radius, with the id of the pair's row owner.
-    fn pair_contacts<D: NormalDamping>(
+    /// Pass 1: every listed pair, in blocks of four consecutive pairs, `CHUNK` pairs per
+    /// work item. Pass 2: every particle sums its pairs and walls ([`Self::particle_sum`]),
+    /// `CHUNK` particles per work item, in a fixed order: the result does not depend on
+    /// the thread count.
+    fn contacts<D: NormalDamping>(
         &self,
         p: &Particles,
         list: &VerletList,
         results: &mut [PairResult],
         history: &mut [f64],
-    ) -> (f64, u32) {
-        let pairs = list.pairs();
-        let width = self.layout.width;
-        let one = (self.materials == 1).then(|| Coefficients::<f64x4>::splat(&self.table[0]));
-        let zero = f64x4::ZERO;
-        let lane_mask = [1, 2, 3, 4]
-            .map(|m| f64x4::new([0, 1, 2, 3].map(|l| if l < m { 1.0 } else { -1.0 })).cmp_gt(zero));
-        let dt = f64x4::splat(self.dt);
-        (
-            results.par_chunks_mut(BLOCKS * LANES),
-            history.par_chunks_mut(BLOCKS * LANES * width),
-        )
-            .into_par_iter()
-            .enumerate()
-            .map(|(c, (results, history))| {
-                let mut worst = (0.0f64, u32::MAX);
-                for (b, (out, hist)) in results
-                    .chunks_mut(LANES)
-                    .zip(history.chunks_mut(LANES * width))
-                    .enumerate()
-                {
-                    let k0 = (c * BLOCKS + b) * LANES;
-                    let valid = (pairs - k0).min(LANES);
-                    // Lanes past the last pair repeat it and are masked.
-                    let ks = [0, 1, 2, 3].map(|l| k0 + l.min(valid - 1));
-                    let is = ks.map(|k| list.owner[k] as usize);
-                    let js = ks.map(|k| list.neighbours[k] as usize);
-                    let (ri, rj) = (gather(&p.radius, &is), gather(&p.radius, &js));
-                    let gap = gather3(&p.position, &is) - gather3(&p.position, &js);
-                    let d2 = gap.dot(gap);
-                    let reach = ri + rj;
-                    let component = |v: usize| {
-                        f64x4::new(
-                            hist[v * LANES..(v + 1) * LANES]
-                                .try_into()
-                                .expect("4 lanes"),
-                        )
-                    };
-                    let mut h = History::<f64x4>::load(self.layout, component);
-                    let live =
-                        (d2.cmp_lt(reach * reach) | h.bond.cmp_gt(zero)) & lane_mask[valid - 1];
-                    if live.none() {
-                        out.fill([0.0; 9]);
-                        hist.fill(0.0);
-                        continue;
-                    }
-                    let d = d2.sqrt();
-                    // One division for both 1/d and 1/(r_i + r_j).
-                    let q = f64x4::ONE / (d * reach);
-                    let (inv_d, inv_reach) = (q * reach, q * d);
-                    let nrm = gap.scale(inv_d);
-                    let (wi, wj) = (
-                        gather3(&p.angular_velocity, &is),
-                        gather3(&p.angular_velocity, &js),
-                    );
-                    let geometry = Geometry {
-                        n: nrm,
-                        delta: reach - d,
-                        r_eff: ri * rj * inv_reach,
-                        radius_ratio: (rj - ri) * inv_reach,
-                        inv_mass_sum: gather(&p.inv_mass, &is) + gather(&p.inv_mass, &js),
-                        velocity: gather3(&p.velocity, &is) - gather3(&p.velocity, &js),
-                        surface: nrm.cross(wi).scale(ri) + nrm.cross(wj).scale(rj),
-                        spin: wi - wj,
-                    };
-                    let coefficients = match &one {
-                        Some(c) => *c,
-                        None => {
-                            let refs = [0, 1, 2, 3]
-                                .map(|l| self.pair(p.material[is[l]], p.material[js[l]]));
-                            Coefficients::gather(&refs, |l| l)
-                        }
-                    };
-                    let flip = f64x4::new([0, 1, 2, 3].map(|l| {
-                        if p.id[is[l]] < p.id[js[l]] {
-                            1.0
-                        } else {
-                            -1.0
-                        }
-                    }));
-                    let e = interact::<f64x4, D>(
-                        &coefficients,
-                        self.layout,
-                        &mut h,
-                        flip,
-                        &geometry,
-                        dt,
-                    );
-                    h.store(self.layout, |v, lanes| {
-                        hist[v * LANES..(v + 1) * LANES].copy_from_slice(lanes.as_array_ref())
-                    });
-                    let arm = nrm.cross(e.tangential);
-                    let roll = e.rolling.cross(nrm).scale(geometry.r_eff);
-                    let owner = roll - arm.scale(ri);
-                    let partner = -(arm.scale(rj) + roll);
-                    let lanes = [
-                        e.force.x, e.force.y, e.force.z, owner.x, owner.y, owner.z, partner.x,
-                        partner.y, partner.z,
-                    ]
-                    .map(|v| v.to_array());
-                    for (l, slot) in out.iter_mut().enumerate() {
-                        *slot = lanes.map(|v| v[l]);
-                    }
-                    let overlap = e.touching & geometry.delta.cmp_gt(zero) & lane_mask[valid - 1];
-                    let ratio = overlap.blend(geometry.delta / ri.min(rj), zero);
-                    for (l, &x) in ratio.as_array_ref().iter().enumerate() {
-                        if x > 0.0 {
-                            worst = deeper(worst, (x, p.id[is[l]]));
-                        }
-                    }
-                }
-                worst
-            })
-            .reduce(|| (0.0, u32::MAX), deeper)
-    }
-
-    /// Pass 2: every particle sums its own pairs (the owner's share), the pairs it is
-    /// partner in (the other share), then its walls (scalar), in that fixed order.
-    fn sums_and_walls<D: NormalDamping>(
-        &self,
-        p: &Particles,
-        list: &VerletList,
-        results: &[PairResult],
         [force, torque]: [&mut Columns; 2],
-        walls: Option<(&Walls, &WallList, &mut WallHistory)>,
+        mut walls: Option<(&Walls, &WallList, &mut WallHistory)>,
     ) -> (f64, u32) {
         let n = p.len();
         let width = self.layout.width;
-        let (wall_set, wall_chunks): (_, Vec<Option<&mut [f64]>>) = match walls {
-            Some((w, l, h)) => (
-                Some((w, l)),
-                row_chunks(&mut h.values, &l.start, n, width)
-                    .into_iter()
-                    .map(Some)
-                    .collect(),
-            ),
-            None => (None, (0..n.div_ceil(CHUNK)).map(|_| None).collect()),
+        let pairs_worst = {
+            let _span = tracing::info_span!("pair_contacts").entered();
+            (
+                results.par_chunks_mut(CHUNK),
+                history.par_chunks_mut(CHUNK * width),
+            )
+                .into_par_iter()
+                .enumerate()
+                .map(|(c, (results, history))| {
+                    let rows = Rows::of(p);
+                    let mut worst = (0.0f64, u32::MAX);
+                    for (b, (out, hist)) in results
+                        .chunks_mut(LANES)
+                        .zip(history.chunks_mut(LANES * width))
+                        .enumerate()
+                    {
+                        let k0 = c * CHUNK + b * LANES;
+                        self.block::<D>(&rows, list, k0, out, hist, &mut worst);
+                    }
+                    worst
+                })
+                .reduce(|| (0.0, u32::MAX), deeper)
         };
+        let _span = tracing::info_span!("contact_sums_and_walls").entered();
+        let wall_set = walls.as_ref().map(|(w, l, _)| (*w, *l));
         let [fx, fy, fz] = force;
         let [tx, ty, tz] = torque;
-        (
-            fx.par_chunks_mut(CHUNK),
-            fy.par_chunks_mut(CHUNK),
-            fz.par_chunks_mut(CHUNK),
-            tx.par_chunks_mut(CHUNK),
-            ty.par_chunks_mut(CHUNK),
-            tz.par_chunks_mut(CHUNK),
-            wall_chunks,
+        let results = &*results;
+        let sums_worst = (
+            (
+                fx.par_chunks_mut(CHUNK),
+                fy.par_chunks_mut(CHUNK),
+                fz.par_chunks_mut(CHUNK),
+                tx.par_chunks_mut(CHUNK),
+                ty.par_chunks_mut(CHUNK),
+                tz.par_chunks_mut(CHUNK),
+            ),
+            wall_history_chunks(walls.as_mut(), n, width),
         )
             .into_par_iter()
             .enumerate()
-            .map(|(c, (fx, fy, fz, tx, ty, tz, mut wall_hist))| {
+            .map(|(c, ((fx, fy, fz, tx, ty, tz), mut wall_hist))| {
                 let base = c * CHUNK;
+                let entry_base = wall_set.map_or(0, |(_, wl)| wl.start[base] as usize);
                 let mut worst = (0.0f64, u32::MAX);
                 for k in 0..fx.len() {
-                    let i = base + k;
-                    let mut sum = [0.0; 6];
-                    for r in &results[list.start[i] as usize..list.start[i + 1] as usize] {
-                        for (s, x) in sum.iter_mut().zip(r) {
-                            *s += x;
-                        }
-                    }
-                    let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
-                    for &pair in &list.rev_pairs[rev] {
-                        let r = &results[pair as usize];
-                        for d in 0..3 {
-                            sum[d] -= r[d];
-                            sum[3 + d] += r[6 + d];
-                        }
-                    }
-                    if let (Some((walls, wl)), Some(hist)) = (wall_set, wall_hist.as_deref_mut()) {
-                        let xi = row3(&p.position, i);
-                        let wi = row3(&p.angular_velocity, i);
-                        let ri = p.radius[i];
-                        let entry_base = wl.start[base] as usize;
-                        let mut deepest = 0.0f64;
-                        for e in wl.start[i] as usize..wl.start[i + 1] as usize {
-                            let wall = &walls.list[wl.walls[e] as usize];
-                            let at = (e - entry_base) * width;
-                            let row = &mut hist[at..at + width];
-                            let (dist, nrm) = wall_distance(&wall.shape, [xi.x, xi.y, xi.z]);
-                            // Apart, with no history (so not bonded): nothing to compute.
-                            if dist > ri && row.iter().all(|&h| h == 0.0) {
-                                continue;
-                            }
-                            let nrm = V3::new(nrm[0], nrm[1], nrm[2]);
-                            let geometry = Geometry {
-                                n: nrm,
-                                delta: ri - dist,
-                                r_eff: ri,
-                                radius_ratio: 1.0,
-                                inv_mass_sum: p.inv_mass[i],
-                                velocity: row3(&p.velocity, i),
-                                surface: nrm.cross(wi).scale(ri),
-                                spin: wi,
-                            };
-                            let mut h = History::<f64>::load(self.layout, |v| row[v]);
-                            let coefficients = *self.pair(wall.material, p.material[i]);
-                            let e = interact::<f64, D>(
-                                &coefficients,
-                                self.layout,
-                                &mut h,
-                                1.0,
-                                &geometry,
-                                self.dt,
-                            );
-                            h.store(self.layout, |v, x| row[v] = x);
-                            if !e.touching {
-                                continue;
-                            }
-                            let t =
-                                e.rolling.cross(nrm).scale(ri) - nrm.cross(e.tangential).scale(ri);
-                            for (d, (f, t)) in
-                                [(e.force.x, t.x), (e.force.y, t.y), (e.force.z, t.z)]
-                                    .into_iter()
-                                    .enumerate()
-                            {
-                                sum[d] += f;
-                                sum[3 + d] += t;
-                            }
-                            deepest = deepest.max(geometry.delta);
-                        }
-                        if deepest > 0.0 {
-                            worst = deeper(worst, (deepest / ri, p.id[i]));
-                        }
-                    }
+                    let (sum, deep) = self.particle_sum::<D>(
+                        p,
+                        list,
+                        base + k,
+                        results,
+                        wall_set,
+                        wall_hist.as_deref_mut(),
+                        entry_base,
+                    );
                     [fx[k], fy[k], fz[k], tx[k], ty[k], tz[k]] = sum;
+                    worst = deeper(worst, deep);
                 }
                 worst
             })
-            .reduce(|| (0.0, u32::MAX), deeper)
+            .reduce(|| (0.0, u32::MAX), deeper);
+        deeper(pairs_worst, sums_worst)
+    }
+
+    /// One block of four consecutive pairs from pair `k0` (one per lane, whatever their
+    /// rows), with its history block: writes the pairs' results and history, and records
+    /// the largest overlap over the smaller radius, with the id of the pair's row owner.
+    #[inline(always)]
+    fn block<D: NormalDamping>(
+        &self,
+        p: &Rows,
+        list: &VerletList,
+        k0: usize,
+        out: &mut [PairResult],
+        hist: &mut [f64],
+        worst: &mut (f64, u32),
+    ) {
+        let zero = f64x4::ZERO;
+        let dt = f64x4::splat(self.dt);
+        let lane_mask = group_masks();
+        let valid = (list.pairs() - k0).min(LANES);
+        let one = &self.one;
+        // Lanes past the last pair repeat it and are masked.
+        let ks = [0, 1, 2, 3].map(|l| k0 + l.min(valid - 1));
+        let is = ks.map(|k| list.owner[k] as usize);
+        let js = ks.map(|k| list.neighbours[k] as usize);
+        // Checked once here, the indices need no check in the gathers.
+        assert!(
+            is.iter().chain(&js).all(|&k| k < p.n),
+            "listed pairs index particles"
+        );
+        let (ri, rj) = (gather(p.radius, &is), gather(p.radius, &js));
+        let gap = gather3(&p.position, &is) - gather3(&p.position, &js);
+        let d2 = gap.dot(gap);
+        let reach = ri + rj;
+        let component = |v: usize| {
+            f64x4::new(
+                hist[v * LANES..(v + 1) * LANES]
+                    .try_into()
+                    .expect("4 lanes"),
+            )
+        };
+        let mut h = History::<f64x4>::load(self.layout, component);
+        let live = (d2.cmp_lt(reach * reach) | h.bond.cmp_gt(zero)) & lane_mask[valid - 1];
+        if live.none() {
+            out.fill([0.0; 9]);
+            hist.fill(0.0);
+            return;
+        }
+        let d = d2.sqrt();
+        // One division for both 1/d and 1/(r_i + r_j).
+        let q = f64x4::ONE / (d * reach);
+        let (inv_d, inv_reach) = (q * reach, q * d);
+        let nrm = gap.scale(inv_d);
+        let (wi, wj) = (
+            gather3(&p.angular_velocity, &is),
+            gather3(&p.angular_velocity, &js),
+        );
+        let geometry = Geometry {
+            n: nrm,
+            delta: reach - d,
+            r_eff: ri * rj * inv_reach,
+            radius_ratio: (rj - ri) * inv_reach,
+            inv_mass_sum: gather(p.inv_mass, &is) + gather(p.inv_mass, &js),
+            velocity: gather3(&p.velocity, &is) - gather3(&p.velocity, &js),
+            surface: nrm.cross(wi).scale(ri) + nrm.cross(wj).scale(rj),
+            spin: wi - wj,
+        };
+        let gathered;
+        let coefficients = match &one {
+            Some(c) => c,
+            None => {
+                let refs = [0, 1, 2, 3].map(|l| self.pair(p.material[is[l]], p.material[js[l]]));
+                gathered = Coefficients::gather(&refs, |l| l);
+                &gathered
+            }
+        };
+        let flip =
+            f64x4::new([0, 1, 2, 3].map(|l| if p.id[is[l]] < p.id[js[l]] { 1.0 } else { -1.0 }));
+        let e = interact::<f64x4, D>(coefficients, self.layout, &mut h, flip, &geometry, dt);
+        h.store(self.layout, |v, lanes| {
+            hist[v * LANES..(v + 1) * LANES].copy_from_slice(lanes.as_array_ref())
+        });
+        let arm = nrm.cross(e.tangential);
+        let roll = e.rolling.cross(nrm).scale(geometry.r_eff);
+        let owner = roll - arm.scale(ri);
+        let partner = -(arm.scale(rj) + roll);
+        let lanes = [
+            e.force.x, e.force.y, e.force.z, owner.x, owner.y, owner.z, partner.x, partner.y,
+            partner.z,
+        ]
+        .map(|v| v.to_array());
+        for (l, slot) in out.iter_mut().enumerate() {
+            *slot = lanes.map(|v| v[l]);
+        }
+        let overlap = e.touching & geometry.delta.cmp_gt(zero) & lane_mask[valid - 1];
+        let ratio = overlap.blend(geometry.delta / ri.min(rj), zero);
+        // Most blocks hold no overlap as deep as the chunk's deepest so far.
+        let record = ratio.cmp_gt(zero) & ratio.cmp_ge(f64x4::splat(worst.0));
+        if record.none() {
+            return;
+        }
+        for (l, &x) in ratio.as_array_ref().iter().enumerate() {
+            if x > 0.0 {
+                *worst = deeper(*worst, (x, p.id[is[l]]));
+            }
+        }
+    }
+
+    /// The force and torque on particle i, summed in a fixed order: its own pairs (the
+    /// owner's share), the pairs it is partner in (the other share), then its walls
+    /// (scalar), with its deepest wall overlap over its radius.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn particle_sum<D: NormalDamping>(
+        &self,
+        p: &Particles,
+        list: &VerletList,
+        i: usize,
+        results: &[PairResult],
+        walls: Option<(&Walls, &WallList)>,
+        wall_hist: Option<&mut [f64]>,
+        entry_base: usize,
+    ) -> ([f64; 6], (f64, u32)) {
+        let width = self.layout.width;
+        let mut worst = (0.0f64, u32::MAX);
+        let mut sum = [0.0; 6];
+        let own = list.start[i] as usize..list.start[i + 1] as usize;
+        for r in &results[own] {
+            for (s, x) in sum.iter_mut().zip(r) {
+                *s += x;
+            }
+        }
+        let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
+        for &pair in &list.rev_pairs[rev] {
+            let r = &results[pair as usize];
+            for d in 0..3 {
+                sum[d] -= r[d];
+                sum[3 + d] += r[6 + d];
+            }
+        }
+        if let (Some((walls, wl)), Some(hist)) = (walls, wall_hist) {
+            let xi = row3(&p.position, i);
+            let wi = row3(&p.angular_velocity, i);
+            let ri = p.radius[i];
+            let mut deepest = 0.0f64;
+            for e in wl.start[i] as usize..wl.start[i + 1] as usize {
+                let wall = &walls.list[wl.walls[e] as usize];
+                let at = (e - entry_base) * width;
+                let row = &mut hist[at..at + width];
+                let (dist, nrm) = wall_distance(&wall.shape, [xi.x, xi.y, xi.z]);
+                // Apart, with no history (so not bonded): nothing to compute.
+                if dist > ri && row.iter().all(|&h| h == 0.0) {
+                    continue;
+                }
+                let nrm = V3::new(nrm[0], nrm[1], nrm[2]);
+                let geometry = Geometry {
+                    n: nrm,
+                    delta: ri - dist,
+                    r_eff: ri,
+                    radius_ratio: 1.0,
+                    inv_mass_sum: p.inv_mass[i],
+                    velocity: row3(&p.velocity, i),
+                    surface: nrm.cross(wi).scale(ri),
+                    spin: wi,
+                };
+                let mut h = History::<f64>::load(self.layout, |v| row[v]);
+                let coefficients = *self.pair(wall.material, p.material[i]);
+                let e =
+                    interact::<f64, D>(&coefficients, self.layout, &mut h, 1.0, &geometry, self.dt);
+                h.store(self.layout, |v, x| row[v] = x);
+                if !e.touching {
+                    continue;
+                }
+                let t = e.rolling.cross(nrm).scale(ri) - nrm.cross(e.tangential).scale(ri);
+                for (d, (f, t)) in [(e.force.x, t.x), (e.force.y, t.y), (e.force.z, t.z)]
+                    .into_iter()
+                    .enumerate()
+                {
+                    sum[d] += f;
+                    sum[3 + d] += t;
+                }
+                deepest = deepest.max(geometry.delta);
+            }
+            if deepest > 0.0 {
+                worst = (deepest / ri, p.id[i]);
+            }
+        }
+        (sum, worst)
     }
 }
 

@@ -7,9 +7,9 @@ use grainflow_components::{
     Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
 };
 use rayon::prelude::*;
-use wide::{f64x4, CmpGt, CmpLt};
+use wide::{f64x4, CmpLt};
 
-use crate::real::Real;
+use crate::real::{gather, group_masks, lane_sum, store_lanes, Real};
 use crate::walls::wall_contact;
 use crate::{row_chunks, CHUNK};
 
@@ -189,33 +189,6 @@ fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
     }
 }
 
-/// Gather `col[js[0..4]]` into lanes.
-#[inline(always)]
-fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
-    f64x4::new([col[js[0]], col[js[1]], col[js[2]], col[js[3]]])
-}
-
-/// The first `out.len()` (1 to 4) lanes of `v` into `out`, with fixed-size stores (a
-/// copy of variable length would call `memcpy`).
-#[inline(always)]
-fn store_lanes(out: &mut [f64], v: f64x4) {
-    let a = v.to_array();
-    match out {
-        [o0, o1, o2, o3] => (*o0, *o1, *o2, *o3) = (a[0], a[1], a[2], a[3]),
-        [o0, o1, o2] => (*o0, *o1, *o2) = (a[0], a[1], a[2]),
-        [o0, o1] => (*o0, *o1) = (a[0], a[1]),
-        [o0] => *o0 = a[0],
-        _ => unreachable!("a lane group holds one to four pairs"),
-    }
-}
-
-/// Sum of the lanes in a fixed order.
-#[inline(always)]
-fn lane_sum(v: f64x4) -> f64 {
-    let a = v.to_array();
-    (a[0] + a[1]) + (a[2] + a[3])
-}
-
 /// Pass 1: the pairs of each particle's own row. Writes the row sums into the force
 /// columns and s_k for every pair; returns the largest overlap over the smaller radius of
 /// its pair, with the id of the pair's row owner.
@@ -242,9 +215,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
     let (start, nbr) = (&list.start, &list.neighbours);
     let [fx, fy, fz] = force;
     let zero = f64x4::ZERO;
-    // Lane masks of a group of 1, 2, 3 or 4 pairs.
-    let row_mask = [1, 2, 3, 4]
-        .map(|m| f64x4::new([0, 1, 2, 3].map(|l| if l < m { 1.0 } else { -1.0 })).cmp_gt(zero));
+    let row_mask = group_masks();
     (
         fx.par_chunks_mut(CHUNK),
         fy.par_chunks_mut(CHUNK),

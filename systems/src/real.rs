@@ -212,3 +212,50 @@ impl<T: Real> Neg for V3<T> {
         Self::new(-self.x, -self.y, -self.z)
     }
 }
+
+/// Gather `col[js[0..4]]` into lanes.
+#[inline(always)]
+pub fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
+    f64x4::new([col[js[0]], col[js[1]], col[js[2]], col[js[3]]])
+}
+
+/// Lane masks of a group of 1, 2, 3 or 4 pairs: `group_masks()[m - 1]` sets lanes `< m`.
+#[inline(always)]
+pub fn group_masks() -> [f64x4; 4] {
+    let zero = f64x4::ZERO;
+    [1, 2, 3, 4]
+        .map(|m| f64x4::new([0, 1, 2, 3].map(|l| if l < m { 1.0 } else { -1.0 })).cmp_gt(zero))
+}
+
+/// The first `out.len()` (1 to 4) lanes of `v` into `out`, with fixed-size stores (a
+/// copy of variable length would call `memcpy`).
+#[inline(always)]
+pub fn store_lanes(out: &mut [f64], v: f64x4) {
+    let a = v.to_array();
+    match out {
+        [o0, o1, o2, o3] => (*o0, *o1, *o2, *o3) = (a[0], a[1], a[2], a[3]),
+        [o0, o1, o2] => (*o0, *o1, *o2) = (a[0], a[1], a[2]),
+        [o0, o1] => (*o0, *o1) = (a[0], a[1]),
+        [o0] => *o0 = a[0],
+        _ => unreachable!("a lane group holds one to four pairs"),
+    }
+}
+
+/// `values` (1 to 4) into the first lanes, zero in the others.
+#[inline(always)]
+pub fn load_lanes(values: &[f64]) -> f64x4 {
+    f64x4::new(match *values {
+        [a, b, c, d] => [a, b, c, d],
+        [a, b, c] => [a, b, c, 0.0],
+        [a, b] => [a, b, 0.0, 0.0],
+        [a] => [a, 0.0, 0.0, 0.0],
+        _ => unreachable!("a lane group holds one to four pairs"),
+    })
+}
+
+/// Sum of the lanes in a fixed order.
+#[inline(always)]
+pub fn lane_sum(v: f64x4) -> f64 {
+    let a = v.to_array();
+    (a[0] + a[1]) + (a[2] + a[3])
+}
