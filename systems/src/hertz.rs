@@ -225,6 +225,10 @@ fn row_forces<T: PairTable, D: NormalDamping>(
         .into_par_iter()
         .enumerate()
         .map(|(c, (fx, fy, fz, scale))| {
+            // Columns cut to the particle count: a lane index checked once against `n`
+            // needs no bounds check in the gathers that follow.
+            let (x, y, z, r) = (&x[..n], &y[..n], &z[..n], &r[..n]);
+            let (vx, vy, vz, inv_m, mat) = (&vx[..n], &vy[..n], &vz[..n], &inv_m[..n], &mat[..n]);
             let base = c * CHUNK;
             let pair_base = start[base] as usize;
             let mut worst = (0.0f64, u32::MAX);
@@ -247,6 +251,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
                     let first = row.start + 4 * g;
                     // Lanes past the row's end repeat its last partner and are masked.
                     let js = [0, 1, 2, 3].map(|l| group[l.min(group.len() - 1)] as usize);
+                    assert!(js.iter().all(|&j| j < n), "listed pairs index particles");
                     let rj = gather(r, &js);
                     let (dx, dy, dz) = (
                         xi - gather(x, &js),
