@@ -31,7 +31,7 @@ use crate::jkr::{
 };
 use crate::real::{gather, group_masks, Real, V3};
 use crate::rolling::{rolling_resistance_force, rolling_velocity};
-use crate::walls::wall_distance;
+use crate::walls::{wall_contact, wall_distance};
 use crate::{row_chunks, CHUNK};
 
 /// Whether the scene needs this system (some pair has friction, rolling or adhesion).
@@ -689,11 +689,13 @@ impl Kernel<'_> {
                 let wall = &walls.list[wl.walls[e] as usize];
                 let at = (e - entry_base) * width;
                 let row = &mut hist[at..at + width];
-                let (dist, nrm) = wall_distance(&wall.shape, [xi.x, xi.y, xi.z]);
-                // Apart, with no history (so not bonded): nothing to compute.
-                if dist > ri && row.iter().all(|&h| h == 0.0) {
-                    continue;
-                }
+                let at_point = [xi.x, xi.y, xi.z];
+                let (dist, nrm) = match wall_contact(&wall.shape, at_point, ri) {
+                    Some(contact) => contact,
+                    // Apart, with no history (so not bonded): nothing to compute.
+                    None if row.iter().all(|&h| h == 0.0) => continue,
+                    None => wall_distance(&wall.shape, at_point),
+                };
                 let nrm = V3::new(nrm[0], nrm[1], nrm[2]);
                 let geometry = Geometry {
                     n: nrm,
