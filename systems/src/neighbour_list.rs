@@ -108,12 +108,22 @@ pub fn max_displacement_squared(particles: &Particles, list: &VerletList) -> f64
 
 /// Uniform cell grid over the particles' bounding box, cell edge >= 2 r_max + skin, so
 /// that every pair within `r_i + r_j + skin` lies in the same or an adjacent cell.
+///
+/// Cells are numbered tile by tile: tiles of `TILE`^3 cells in x-y-z order, and the cells
+/// of a tile in x-y-z order, so that the cells around a cell, and after the re-sort the
+/// particles in them, are close in memory in all three directions, not only in x (with
+/// plain x-y-z numbering a neighbour in z is a whole layer of cells away).
 pub struct CellGrid {
     pub origin: [f64; 3],
     pub edge: f64,
     pub dims: [usize; 3],
+    /// Tiles per direction, `dims` rounded up to whole tiles.
+    pub tiles: [usize; 3],
     pub max_radius: f64,
 }
+
+/// Cells per tile edge.
+const TILE: usize = 4;
 
 /// Particles ordered by cell: those of cell `c` are `members[cell_start[c]..cell_start[c+1]]`.
 pub struct CellOrder {
@@ -144,6 +154,7 @@ impl CellGrid {
                 origin: [0.0; 3],
                 edge: 1.0,
                 dims: [1, 1, 1],
+                tiles: [1, 1, 1],
                 max_radius,
             };
         }
@@ -164,21 +175,37 @@ impl CellGrid {
             origin: lo,
             edge,
             dims,
+            tiles: dims.map(|d| d.div_ceil(TILE)),
             max_radius,
         }
     }
 
+    /// Number of cell indices (the cells of whole tiles).
     pub fn n_cells(&self) -> usize {
-        self.dims[0] * self.dims[1] * self.dims[2]
+        self.tiles.iter().product::<usize>() * TILE * TILE * TILE
     }
 
+    /// Index of the cell at cell coordinates `c`.
+    #[inline(always)]
+    pub fn cell(&self, c: [usize; 3]) -> usize {
+        let tile = (c[2] / TILE * self.tiles[1] + c[1] / TILE) * self.tiles[0] + c[0] / TILE;
+        tile * TILE * TILE * TILE + ((c[2] % TILE) * TILE + c[1] % TILE) * TILE + c[0] % TILE
+    }
+
+    /// Cell coordinates of cell index `c`.
     #[inline(always)]
     pub fn coords(&self, c: u32) -> [usize; 3] {
         let c = c as usize;
+        let (tile, local) = (c / (TILE * TILE * TILE), c % (TILE * TILE * TILE));
+        let t = [
+            tile % self.tiles[0],
+            (tile / self.tiles[0]) % self.tiles[1],
+            tile / (self.tiles[0] * self.tiles[1]),
+        ];
         [
-            c % self.dims[0],
-            (c / self.dims[0]) % self.dims[1],
-            c / (self.dims[0] * self.dims[1]),
+            t[0] * TILE + local % TILE,
+            t[1] * TILE + (local / TILE) % TILE,
+            t[2] * TILE + local / (TILE * TILE),
         ]
     }
 
@@ -187,6 +214,7 @@ impl CellGrid {
         let [x, y, z] = &particles.position;
         let inv = 1.0 / self.edge;
         let (o, dims) = (self.origin, self.dims);
+        let grid = &*self;
         let mut cell = vec![0u32; particles.len()];
         cell.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
             let base = c * CHUNK;
@@ -195,7 +223,7 @@ impl CellGrid {
                 let ix = (((x[i] - o[0]) * inv) as usize).min(dims[0] - 1);
                 let iy = (((y[i] - o[1]) * inv) as usize).min(dims[1] - 1);
                 let iz = (((z[i] - o[2]) * inv) as usize).min(dims[2] - 1);
-                *slot = (ix + dims[0] * (iy + dims[1] * iz)) as u32;
+                *slot = grid.cell([ix, iy, iz]) as u32;
             }
         });
         cell
@@ -262,18 +290,17 @@ fn build_half_list(
                 };
                 for gz in cz.saturating_sub(1)..(cz + 2).min(dims[2]) {
                     for gy in cy.saturating_sub(1)..(cy + 2).min(dims[1]) {
-                        let row = dims[0] * (gy + dims[1] * gz);
-                        let c0 = row + cx.saturating_sub(1);
-                        let c1 = row + (cx + 1).min(dims[0] - 1);
-                        // Cells c0..=c1 are consecutive: one contiguous run of members.
-                        let (m0, m1) = (cell_start[c0] as usize, cell_start[c1 + 1] as usize);
-                        match members {
-                            None => (m0.max(i + 1)..m1).for_each(&mut consider),
-                            Some(m) => m[m0..m1]
-                                .iter()
-                                .map(|&j| j as usize)
-                                .filter(|&j| j > i)
-                                .for_each(&mut consider),
+                        for gx in cx.saturating_sub(1)..(cx + 2).min(dims[0]) {
+                            let c = grid.cell([gx, gy, gz]);
+                            let (m0, m1) = (cell_start[c] as usize, cell_start[c + 1] as usize);
+                            match members {
+                                None => (m0.max(i + 1)..m1).for_each(&mut consider),
+                                Some(m) => m[m0..m1]
+                                    .iter()
+                                    .map(|&j| j as usize)
+                                    .filter(|&j| j > i)
+                                    .for_each(&mut consider),
+                            }
                         }
                     }
                 }
