@@ -214,7 +214,6 @@ impl CellGrid {
         let [x, y, z] = &particles.position;
         let inv = 1.0 / self.edge;
         let (o, dims) = (self.origin, self.dims);
-        let grid = &*self;
         let mut cell = vec![0u32; particles.len()];
         cell.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
             let base = c * CHUNK;
@@ -223,7 +222,7 @@ impl CellGrid {
                 let ix = (((x[i] - o[0]) * inv) as usize).min(dims[0] - 1);
                 let iy = (((y[i] - o[1]) * inv) as usize).min(dims[1] - 1);
                 let iz = (((z[i] - o[2]) * inv) as usize).min(dims[2] - 1);
-                *slot = grid.cell([ix, iy, iz]) as u32;
+                *slot = self.cell([ix, iy, iz]) as u32;
             }
         });
         cell
