@@ -190,17 +190,18 @@ fn turn_orientations(particles: &Particles, rotation: &mut Rotation, dt: f64) {
     let [q0, q1, q2, q3] = &mut rotation.orientation;
     let h = 0.5 * dt;
     (
-        q0.par_chunks_mut(CHUNK),
-        q1.par_chunks_mut(CHUNK),
-        q2.par_chunks_mut(CHUNK),
-        q3.par_chunks_mut(CHUNK),
+        (
+            q0.par_chunks_mut(CHUNK),
+            q1.par_chunks_mut(CHUNK),
+            q2.par_chunks_mut(CHUNK),
+            q3.par_chunks_mut(CHUNK),
+        ),
+        (wx.par_chunks(CHUNK), wy.par_chunks(CHUNK), wz.par_chunks(CHUNK)),
     )
         .into_par_iter()
-        .enumerate()
-        .for_each(|(c, (q0, q1, q2, q3))| {
-            for k in 0..q0.len() {
-                let i = c * CHUNK + k;
-                let w = glam::DQuat::from_xyzw(h * wx[i], h * wy[i], h * wz[i], 0.0);
+        .for_each(|((q0, q1, q2, q3), (wx, wy, wz))| {
+            for k in 0..q0.len().min(wx.len()) {
+                let w = glam::DQuat::from_xyzw(h * wx[k], h * wy[k], h * wz[k], 0.0);
                 let q = glam::DQuat::from_xyzw(q1[k], q2[k], q3[k], q0[k]);
                 let q = (q + w * q).normalize();
                 (q0[k], q1[k], q2[k], q3[k]) = (q.w, q.x, q.y, q.z);
