@@ -196,7 +196,11 @@ fn turn_orientations(particles: &Particles, rotation: &mut Rotation, dt: f64) {
             q2.par_chunks_mut(CHUNK),
             q3.par_chunks_mut(CHUNK),
         ),
-        (wx.par_chunks(CHUNK), wy.par_chunks(CHUNK), wz.par_chunks(CHUNK)),
+        (
+            wx.par_chunks(CHUNK),
+            wy.par_chunks(CHUNK),
+            wz.par_chunks(CHUNK),
+        ),
     )
         .into_par_iter()
         .for_each(|((q0, q1, q2, q3), (wx, wy, wz))| {
