@@ -293,11 +293,27 @@ impl<T: Real> History<T> {
 /// Per pair: force on the owner (3), torque on the owner (3), torque on the partner (3).
 type PairResult = [f64; 9];
 
+/// Per wall-list entry: force (3) and torque (3) on the particle, overlap, and 1 if the
+/// contact acts (0: apart, nothing to add).
+type WallResult = [f64; 8];
+
+/// A wall-list entry waiting for its lane: its index in the chunk, its particle, the
+/// distance and normal from the wall, the wall's material.
+#[derive(Clone, Copy, Default)]
+struct WallLane {
+    at: usize,
+    particle: usize,
+    dist: f64,
+    normal: [f64; 3],
+    material: u16,
+}
+
 const LANES: usize = ContactHistory::LANES;
 
 #[allow(clippy::too_many_arguments)]
 pub fn granular_contact(
     mut pair_results: Local<Vec<PairResult>>,
+    mut wall_results: Local<Vec<WallResult>>,
     mut unused_torque: Local<Columns>,
     mut particles: ResMut<Particles>,
     rotation: Option<ResMut<Rotation>>,
@@ -334,7 +350,10 @@ pub fn granular_contact(
         }
     };
     let (p, l, h) = (&mut *particles, &*list, &mut history.values);
-    let buffers = (&mut pair_results[..], torque);
+    if let Some((_, l, _)) = &walls {
+        wall_results.resize(l.walls.len(), [0.0; 8]);
+    }
+    let buffers = (&mut pair_results[..], &mut wall_results[..], torque);
     let worst = if restitution {
         both_passes::<RestitutionDamping>(p, l, &materials, &laws, buffers, h, walls, clock.dt)
     } else {
@@ -394,18 +413,13 @@ impl<'a> Rows<'a> {
     }
 }
 
-#[inline(always)]
-fn row3(cols: &[Vec<f64>; 3], i: usize) -> V3<f64> {
-    V3::new(cols[0][i], cols[1][i], cols[2][i])
-}
-
 #[allow(clippy::too_many_arguments)]
 fn both_passes<D: NormalDamping>(
     particles: &mut Particles,
     list: &VerletList,
     materials: &Materials,
     laws: &ContactLaws,
-    (results, torque): (&mut [PairResult], &mut Columns),
+    (results, wall_results, torque): (&mut [PairResult], &mut [WallResult], &mut Columns),
     history: &mut [f64],
     walls: Option<(&Walls, &WallList, &mut WallHistory)>,
     dt: f64,
@@ -425,7 +439,7 @@ fn both_passes<D: NormalDamping>(
     let worst = kernel.contacts::<D>(
         particles,
         list,
-        results,
+        (results, wall_results),
         history,
         [&mut force, torque],
         walls,
@@ -472,7 +486,7 @@ impl Kernel<'_> {
         &self,
         p: &Particles,
         list: &VerletList,
-        results: &mut [PairResult],
+        (results, wall_results): (&mut [PairResult], &mut [WallResult]),
         history: &mut [f64],
         [force, torque]: [&mut Columns; 2],
         mut walls: Option<(&Walls, &WallList, &mut WallHistory)>,
@@ -517,25 +531,47 @@ impl Kernel<'_> {
                 tz.par_chunks_mut(CHUNK),
             ),
             wall_history_chunks(walls.as_mut(), n, width),
+            match wall_set {
+                Some((_, wl)) => row_chunks(wall_results, &wl.start, n, 1)
+                    .into_iter()
+                    .map(Some)
+                    .collect(),
+                None => (0..n.div_ceil(CHUNK)).map(|_| None).collect::<Vec<_>>(),
+            },
         )
             .into_par_iter()
             .enumerate()
-            .map(|(c, ((fx, fy, fz, tx, ty, tz), mut wall_hist))| {
+            .map(|(c, ((fx, fy, fz, tx, ty, tz), wall_hist, wall_out))| {
                 let base = c * CHUNK;
-                let entry_base = wall_set.map_or(0, |(_, wl)| wl.start[base] as usize);
+                let rows = base..base + fx.len();
                 let mut worst = (0.0f64, u32::MAX);
-                for k in 0..fx.len() {
-                    let (sum, deep) = self.particle_sum::<D>(
-                        p,
-                        list,
-                        base + k,
-                        results,
-                        wall_set,
-                        wall_hist.as_deref_mut(),
-                        entry_base,
-                    );
+                let walls = match (wall_set, wall_hist, wall_out) {
+                    (Some((walls, wl)), Some(hist), Some(out)) => {
+                        self.wall_contacts::<D>(p, walls, wl, rows.clone(), hist, out);
+                        Some((wl, &*out))
+                    }
+                    _ => None,
+                };
+                for (k, i) in rows.enumerate() {
+                    let mut sum = self.pair_sum(list, i, results);
+                    if let Some((wl, out)) = walls {
+                        let entries = wl.start[i] as usize..wl.start[i + 1] as usize;
+                        let local = entries.start - wl.start[base] as usize;
+                        let mut deepest = 0.0f64;
+                        for r in &out[local..local + entries.len()] {
+                            if r[7] == 0.0 {
+                                continue;
+                            }
+                            for d in 0..6 {
+                                sum[d] += r[d];
+                            }
+                            deepest = deepest.max(r[6]);
+                        }
+                        if deepest > 0.0 {
+                            worst = deeper(worst, (deepest / p.radius[i], p.id[i]));
+                        }
+                    }
                     [fx[k], fy[k], fz[k], tx[k], ty[k], tz[k]] = sum;
-                    worst = deeper(worst, deep);
                 }
                 worst
             })
@@ -648,23 +684,11 @@ impl Kernel<'_> {
         }
     }
 
-    /// The force and torque on particle i, summed in a fixed order: its own pairs (the
-    /// owner's share), the pairs it is partner in (the other share), then its walls
-    /// (scalar), with its deepest wall overlap over its radius.
-    #[allow(clippy::too_many_arguments)]
+    /// The force and torque on particle i from its pairs, summed in a fixed order: its
+    /// own pairs (the owner's share), then the pairs it is partner in (the other share).
+    /// Its walls follow, in list order ([`Self::wall_contacts`]).
     #[inline(always)]
-    fn particle_sum<D: NormalDamping>(
-        &self,
-        p: &Particles,
-        list: &VerletList,
-        i: usize,
-        results: &[PairResult],
-        walls: Option<(&Walls, &WallList)>,
-        wall_hist: Option<&mut [f64]>,
-        entry_base: usize,
-    ) -> ([f64; 6], (f64, u32)) {
-        let width = self.layout.width;
-        let mut worst = (0.0f64, u32::MAX);
+    fn pair_sum(&self, list: &VerletList, i: usize, results: &[PairResult]) -> [f64; 6] {
         let mut sum = [0.0; 6];
         let own = list.start[i] as usize..list.start[i + 1] as usize;
         for r in &results[own] {
@@ -680,56 +704,124 @@ impl Kernel<'_> {
                 sum[3 + d] += r[6 + d];
             }
         }
-        if let (Some((walls, wl)), Some(hist)) = (walls, wall_hist) {
-            let xi = row3(&p.position, i);
-            let wi = row3(&p.angular_velocity, i);
+        sum
+    }
+
+    /// The wall contacts of particles `rows`, four wall-list entries at a time in lanes
+    /// (whatever their particles): `out` (the entries of `rows`) gets every entry's
+    /// [`WallResult`], `hist` (their history rows) is updated. An entry apart with no
+    /// history (so not bonded) is not computed. The lanes run the same arithmetic as one
+    /// contact at a time would: the sums do not change.
+    fn wall_contacts<D: NormalDamping>(
+        &self,
+        p: &Particles,
+        walls: &Walls,
+        wl: &WallList,
+        rows: std::ops::Range<usize>,
+        hist: &mut [f64],
+        out: &mut [WallResult],
+    ) {
+        let width = self.layout.width;
+        let entry_base = wl.start[rows.start] as usize;
+        let mut pending = [WallLane::default(); LANES];
+        let mut count = 0;
+        for i in rows {
+            let xi = [p.position[0][i], p.position[1][i], p.position[2][i]];
             let ri = p.radius[i];
-            let mut deepest = 0.0f64;
             for e in wl.start[i] as usize..wl.start[i + 1] as usize {
+                let at = e - entry_base;
+                out[at] = [0.0; 8];
                 let wall = &walls.list[wl.walls[e] as usize];
-                let at = (e - entry_base) * width;
-                let row = &mut hist[at..at + width];
-                let at_point = [xi.x, xi.y, xi.z];
-                let (dist, nrm) = match wall_contact(&wall.shape, at_point, ri) {
+                let (dist, normal) = match wall_contact(&wall.shape, xi, ri) {
                     Some(contact) => contact,
-                    // Apart, with no history (so not bonded): nothing to compute.
-                    None if row.iter().all(|&h| h == 0.0) => continue,
-                    None => wall_distance(&wall.shape, at_point),
+                    None if hist[at * width..(at + 1) * width].iter().all(|&h| h == 0.0) => {
+                        continue
+                    }
+                    None => wall_distance(&wall.shape, xi),
                 };
-                let nrm = V3::new(nrm[0], nrm[1], nrm[2]);
-                let geometry = Geometry {
-                    n: nrm,
-                    delta: ri - dist,
-                    r_eff: ri,
-                    radius_ratio: 1.0,
-                    inv_mass_sum: p.inv_mass[i],
-                    velocity: row3(&p.velocity, i),
-                    surface: nrm.cross(wi).scale(ri),
-                    spin: wi,
+                pending[count] = WallLane {
+                    at,
+                    particle: i,
+                    dist,
+                    normal,
+                    material: wall.material,
                 };
-                let mut h = History::<f64>::load(self.layout, |v| row[v]);
-                let coefficients = *self.pair(wall.material, p.material[i]);
-                let e =
-                    interact::<f64, D>(&coefficients, self.layout, &mut h, 1.0, &geometry, self.dt);
-                h.store(self.layout, |v, x| row[v] = x);
-                if !e.touching {
-                    continue;
+                count += 1;
+                if count == LANES {
+                    self.wall_lanes::<D>(p, &pending, count, hist, out);
+                    count = 0;
                 }
-                let t = e.rolling.cross(nrm).scale(ri) - nrm.cross(e.tangential).scale(ri);
-                for (d, (f, t)) in [(e.force.x, t.x), (e.force.y, t.y), (e.force.z, t.z)]
-                    .into_iter()
-                    .enumerate()
-                {
-                    sum[d] += f;
-                    sum[3 + d] += t;
-                }
-                deepest = deepest.max(geometry.delta);
-            }
-            if deepest > 0.0 {
-                worst = (deepest / ri, p.id[i]);
             }
         }
-        (sum, worst)
+        if count > 0 {
+            self.wall_lanes::<D>(p, &pending, count, hist, out);
+        }
+    }
+
+    /// The first `count` entries of `lanes` (lanes past them repeat the last and are not
+    /// stored).
+    #[inline(always)]
+    fn wall_lanes<D: NormalDamping>(
+        &self,
+        p: &Particles,
+        lanes: &[WallLane; LANES],
+        count: usize,
+        hist: &mut [f64],
+        out: &mut [WallResult],
+    ) {
+        let width = self.layout.width;
+        let pick = [0, 1, 2, 3].map(|l| lanes[l.min(count - 1)]);
+        let is = pick.map(|w| w.particle);
+        let ri = gather(&p.radius, &is);
+        let nrm = V3::new(
+            f64x4::new(pick.map(|w| w.normal[0])),
+            f64x4::new(pick.map(|w| w.normal[1])),
+            f64x4::new(pick.map(|w| w.normal[2])),
+        );
+        let wi = gather3(&p.angular_velocity.each_ref().map(|c| &c[..]), &is);
+        let geometry = Geometry {
+            n: nrm,
+            delta: ri - f64x4::new(pick.map(|w| w.dist)),
+            r_eff: ri,
+            radius_ratio: f64x4::ONE,
+            inv_mass_sum: gather(&p.inv_mass, &is),
+            velocity: gather3(&p.velocity.each_ref().map(|c| &c[..]), &is),
+            surface: nrm.cross(wi).scale(ri),
+            spin: wi,
+        };
+        let mut h = History::<f64x4>::load(self.layout, |v| {
+            f64x4::new(pick.map(|w| hist[w.at * width + v]))
+        });
+        let refs = pick.map(|w| self.pair(w.material, p.material[w.particle]));
+        let coefficients = Coefficients::gather(&refs, |l| l);
+        let dt = f64x4::splat(self.dt);
+        let e = interact::<f64x4, D>(
+            &coefficients,
+            self.layout,
+            &mut h,
+            f64x4::ONE,
+            &geometry,
+            dt,
+        );
+        let t = e.rolling.cross(nrm).scale(ri) - nrm.cross(e.tangential).scale(ri);
+        let acts = e.touching.blend(f64x4::ONE, f64x4::ZERO);
+        let values = [
+            e.force.x,
+            e.force.y,
+            e.force.z,
+            t.x,
+            t.y,
+            t.z,
+            geometry.delta,
+            acts,
+        ]
+        .map(|v| v.to_array());
+        for (l, w) in lanes[..count].iter().enumerate() {
+            h.store(self.layout, |v, x| {
+                hist[w.at * width + v] = x.as_array_ref()[l]
+            });
+            out[w.at] = values.map(|v| v[l]);
+        }
     }
 }
 
