@@ -13,9 +13,10 @@
 //!
 //! Two passes over the half Verlet list: every pair once, four consecutive pairs at a time
 //! in `f64x4` lanes, with its history stored in blocks of four (the force and both
-//! torques kept per pair); then every particle sums its own pairs, the pairs it is
-//! partner in, and its walls (scalar), in a fixed order: the result does not depend on
-//! the thread count. The model code is written once over [`Real`] and runs in both.
+//! torques kept per pair); then, per chunk of particles, the wall contacts four wall-list
+//! entries at a time in lanes, and every particle sums its own pairs, the pairs it is
+//! partner in, and its walls, in a fixed order: the result does not depend on the thread
+//! count. The model code is written once over [`Real`] and runs on lanes and on scalars.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, Particles, Rotation, RunHealth,
