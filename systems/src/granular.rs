@@ -16,7 +16,7 @@
 //! torques kept per pair); then, per chunk of particles, the wall contacts four wall-list
 //! entries at a time in lanes, and every particle sums its own pairs, the pairs it is
 //! partner in, and its walls, in a fixed order: the result does not depend on the thread
-//! count. The model code is written once over [`Real`] and runs on lanes and on scalars.
+//! count. The model code is written once over [`Real`].
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, Particles, Rotation, RunHealth,
