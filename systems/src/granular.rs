@@ -449,14 +449,15 @@ fn both_passes<D: NormalDamping>(
     worst
 }
 
-/// The wall-history rows of each chunk of particles, or `None`s without walls.
-fn wall_history_chunks<'a>(
-    walls: Option<&'a mut (&Walls, &WallList, &mut WallHistory)>,
+/// Per-entry `values` of the wall list (`width` per entry; `start` its row starts) split
+/// at the chunks of particles, or `None`s without walls.
+fn wall_entry_chunks<'a, T>(
+    values: Option<(&'a mut [T], &[u32])>,
     n: usize,
     width: usize,
-) -> Vec<Option<&'a mut [f64]>> {
-    match walls {
-        Some((_, l, h)) => row_chunks(&mut h.values, &l.start, n, width)
+) -> Vec<Option<&'a mut [T]>> {
+    match values {
+        Some((values, start)) => row_chunks(values, start, n, width)
             .into_iter()
             .map(Some)
             .collect(),
@@ -479,9 +480,10 @@ impl Kernel<'_> {
         &self.table[a as usize * self.materials + b as usize]
     }
 
-    /// Pass 1: every listed pair, in blocks of four consecutive pairs, `CHUNK` pairs per
-    /// work item. Pass 2: every particle sums its pairs and walls ([`Self::particle_sum`]),
-    /// `CHUNK` particles per work item, in a fixed order: the result does not depend on
+    /// Pass 1: every listed pair, in blocks of four consecutive pairs ([`Self::block`]),
+    /// `CHUNK` pairs per work item. Pass 2, `CHUNK` particles per work item: their wall
+    /// contacts ([`Self::wall_contacts`]), then every particle sums its pairs
+    /// ([`Self::pair_sum`]) and its walls in a fixed order: the result does not depend on
     /// the thread count.
     fn contacts<D: NormalDamping>(
         &self,
@@ -531,14 +533,14 @@ impl Kernel<'_> {
                 ty.par_chunks_mut(CHUNK),
                 tz.par_chunks_mut(CHUNK),
             ),
-            wall_history_chunks(walls.as_mut(), n, width),
-            match wall_set {
-                Some((_, wl)) => row_chunks(wall_results, &wl.start, n, 1)
-                    .into_iter()
-                    .map(Some)
-                    .collect(),
-                None => (0..n.div_ceil(CHUNK)).map(|_| None).collect::<Vec<_>>(),
-            },
+            wall_entry_chunks(
+                walls
+                    .as_mut()
+                    .map(|(_, l, h)| (&mut h.values[..], &l.start[..])),
+                n,
+                width,
+            ),
+            wall_entry_chunks(wall_set.map(|(_, l)| (wall_results, &l.start[..])), n, 1),
         )
             .into_par_iter()
             .enumerate()
@@ -597,7 +599,6 @@ impl Kernel<'_> {
         let dt = f64x4::splat(self.dt);
         let lane_mask = group_masks();
         let valid = (list.pairs() - k0).min(LANES);
-        let one = &self.one;
         // Lanes past the last pair repeat it and are masked.
         let ks = [0, 1, 2, 3].map(|l| k0 + l.min(valid - 1));
         let is = ks.map(|k| list.owner[k] as usize);
@@ -645,7 +646,7 @@ impl Kernel<'_> {
             spin: wi - wj,
         };
         let gathered;
-        let coefficients = match &one {
+        let coefficients = match &self.one {
             Some(c) => c,
             None => {
                 let refs = [0, 1, 2, 3].map(|l| self.pair(p.material[is[l]], p.material[js[l]]));
