@@ -241,18 +241,6 @@ pub fn store_lanes(out: &mut [f64], v: f64x4) {
     }
 }
 
-/// `values` (1 to 4) into the first lanes, zero in the others.
-#[inline(always)]
-pub fn load_lanes(values: &[f64]) -> f64x4 {
-    f64x4::new(match *values {
-        [a, b, c, d] => [a, b, c, d],
-        [a, b, c] => [a, b, c, 0.0],
-        [a, b] => [a, b, 0.0, 0.0],
-        [a] => [a, 0.0, 0.0, 0.0],
-        _ => unreachable!("a lane group holds one to four pairs"),
-    })
-}
-
 /// Sum of the lanes in a fixed order.
 #[inline(always)]
 pub fn lane_sum(v: f64x4) -> f64 {
