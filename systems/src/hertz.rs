@@ -98,6 +98,20 @@ trait PairTable: Sync {
             f64x4::new(p.map(D::coefficient)),
         )
     }
+    /// The same for pairs of four owners `is` with four partners `js`.
+    #[inline(always)]
+    fn pair_lanes<D: NormalDamping>(
+        &self,
+        is: &[usize; 4],
+        js: &[usize; 4],
+        mat: &[u16],
+    ) -> (f64x4, f64x4) {
+        let p = [0, 1, 2, 3].map(|l| self.get(mat[is[l]], mat[js[l]]));
+        (
+            f64x4::new(p.map(|p| p.hertz_factor)),
+            f64x4::new(p.map(D::coefficient)),
+        )
+    }
 }
 
 struct OneMaterial(PairParams);
@@ -109,6 +123,15 @@ impl PairTable for OneMaterial {
     }
     #[inline(always)]
     fn lanes<D: NormalDamping>(&self, _: u16, _: &[usize; 4], _: &[u16]) -> (f64x4, f64x4) {
+        self.pair_lanes::<D>(&[0; 4], &[0; 4], &[])
+    }
+    #[inline(always)]
+    fn pair_lanes<D: NormalDamping>(
+        &self,
+        _: &[usize; 4],
+        _: &[usize; 4],
+        _: &[u16],
+    ) -> (f64x4, f64x4) {
         (
             f64x4::splat(self.0.hertz_factor),
             f64x4::splat(D::coefficient(&self.0)),
@@ -130,6 +153,9 @@ impl PairTable for Materials {
 ///    on i summed;
 /// 2. every particle adds s_k (x_i - x_owner) over the pairs it is partner in (the other
 ///    half of each pair force, an exact negative), then its wall forces.
+///
+/// Chunks with few pairs per particle run both passes in pair order instead of particle
+/// by particle (see [`SPARSE_PAIRS_PER_PARTICLE`]); the sums keep a fixed order.
 ///
 /// Each pair force is computed once; each particle sums in a fixed order (own row, then
 /// partner pairs in list order, then walls), so the result does not depend on the thread
@@ -189,6 +215,111 @@ fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
     }
 }
 
+/// A chunk whose rows hold fewer listed pairs than this per particle (a falling cloud, a
+/// loose packing) runs the pair-ordered passes ([`flat_rows`], [`flat_partners`]): with
+/// most rows empty or of one pair, a loop per particle costs more in mispredicted row
+/// ends than the pairs cost. Denser chunks run the per-particle passes. The choice
+/// depends on the list only, so the results do not depend on the thread count.
+const SPARSE_PAIRS_PER_PARTICLE: usize = 2;
+
+/// Whether a chunk of `particles` rows with `pairs` listed pairs is sparse.
+#[inline(always)]
+fn sparse(pairs: usize, particles: usize) -> bool {
+    pairs < SPARSE_PAIRS_PER_PARTICLE * particles
+}
+
+/// The particle columns the passes read, cut to the particle count: a lane index checked
+/// once against `n` needs no bounds check in the gathers that follow.
+#[derive(Clone, Copy)]
+struct Columns<'a> {
+    n: usize,
+    x: &'a [f64],
+    y: &'a [f64],
+    z: &'a [f64],
+    r: &'a [f64],
+    vx: &'a [f64],
+    vy: &'a [f64],
+    vz: &'a [f64],
+    inv_m: &'a [f64],
+    mat: &'a [u16],
+    id: &'a [u32],
+}
+
+impl<'a> Columns<'a> {
+    fn new(p: &'a Particles) -> Self {
+        let ([x, y, z], [vx, vy, vz]) = (&p.position, &p.velocity);
+        Self {
+            n: p.len(),
+            x,
+            y,
+            z,
+            r: &p.radius,
+            vx,
+            vy,
+            vz,
+            inv_m: &p.inv_mass,
+            mat: &p.material,
+            id: &p.id,
+        }
+        .cut()
+    }
+
+    /// The columns sliced to `n`. Call it in the function that gathers: the compiler
+    /// then knows every column's length there.
+    #[inline(always)]
+    fn cut(&self) -> Self {
+        let n = self.n;
+        Self {
+            n,
+            x: &self.x[..n],
+            y: &self.y[..n],
+            z: &self.z[..n],
+            r: &self.r[..n],
+            vx: &self.vx[..n],
+            vy: &self.vy[..n],
+            vz: &self.vz[..n],
+            inv_m: &self.inv_m[..n],
+            mat: &self.mat[..n],
+            id: &self.id[..n],
+        }
+    }
+}
+
+/// s = F/d of four pairs (zero in lanes not `touching`) and their overlap over the
+/// smaller radius, from the radii, the squared distance `d2`, the approach product
+/// (v_i - v_j).(x_i - x_j) and 1/m_i + 1/m_j; `coefficients` as [`PairTable::lanes`].
+#[inline(always)]
+fn pair_scale<D: NormalDamping>(
+    (hf, damp): (f64x4, f64x4),
+    touching: f64x4,
+    [ri, rj]: [f64x4; 2],
+    d2: f64x4,
+    approach: f64x4,
+    inv_mass_sum: f64x4,
+) -> (f64x4, f64x4) {
+    let zero = f64x4::ZERO;
+    let rs = ri + rj;
+    let d = d2.sqrt();
+    // One division for both 1/d and 1/(r_i + r_j); zero in lanes apart.
+    let q = touching.blend(f64x4::ONE / (d * rs), zero);
+    let inv_d = q * rs;
+    let delta = rs - d;
+    let delta_dot = zero - approach * inv_d;
+    let r_eff = ri * rj * (q * d);
+    let f = hertz_normal_force::<f64x4, D>(
+        hf,
+        damp,
+        (r_eff * delta).sqrt(),
+        inv_mass_sum,
+        delta,
+        delta_dot,
+    );
+    (
+        touching.blend(f * inv_d, zero),
+        touching.blend(delta / ri.min(rj), zero),
+    )
+}
+
 /// Pass 1: the pairs of each particle's own row. Writes the row sums into the force
 /// columns and s_k for every pair; returns the largest overlap over the smaller radius of
 /// its pair, with the id of the pair's row owner.
@@ -199,111 +330,184 @@ fn row_forces<T: PairTable, D: NormalDamping>(
     scale: &mut [f64],
 ) -> (f64, u32) {
     let n = particles.len();
-    let Particles {
-        position,
-        velocity,
-        radius,
-        inv_mass,
-        material,
-        force,
-        id,
-        ..
-    } = particles;
-    let [x, y, z] = &*position;
-    let [vx, vy, vz] = &*velocity;
-    let (r, inv_m, mat, id) = (&*radius, &*inv_mass, &*material, &*id);
-    let (start, nbr) = (&list.start, &list.neighbours);
-    let [fx, fy, fz] = force;
-    let zero = f64x4::ZERO;
-    let row_mask = group_masks();
-    (
+    let mut force = std::mem::take(&mut particles.force);
+    let cols = Columns::new(particles);
+    let [fx, fy, fz] = &mut force;
+    let worst = (
         fx.par_chunks_mut(CHUNK),
         fy.par_chunks_mut(CHUNK),
         fz.par_chunks_mut(CHUNK),
-        row_chunks(scale, start, n, 1),
+        row_chunks(scale, &list.start, n, 1),
     )
         .into_par_iter()
         .enumerate()
         .map(|(c, (fx, fy, fz, scale))| {
-            // Columns cut to the particle count: a lane index checked once against `n`
-            // needs no bounds check in the gathers that follow.
-            let (x, y, z, r) = (&x[..n], &y[..n], &z[..n], &r[..n]);
-            let (vx, vy, vz, inv_m, mat) = (&vx[..n], &vy[..n], &vz[..n], &inv_m[..n], &mat[..n]);
-            let base = c * CHUNK;
-            let pair_base = start[base] as usize;
-            let mut worst = (0.0f64, u32::MAX);
-            for k in 0..fx.len() {
-                let i = base + k;
-                let row = start[i] as usize..start[i + 1] as usize;
-                if row.is_empty() {
-                    (fx[k], fy[k], fz[k]) = (0.0, 0.0, 0.0);
-                    continue;
-                }
-                let (xi, yi, zi) = (f64x4::splat(x[i]), f64x4::splat(y[i]), f64x4::splat(z[i]));
-                let (vxi, vyi, vzi) = (
-                    f64x4::splat(vx[i]),
-                    f64x4::splat(vy[i]),
-                    f64x4::splat(vz[i]),
-                );
-                let (ri, inv_mi) = (f64x4::splat(r[i]), f64x4::splat(inv_m[i]));
-                let (mut sx, mut sy, mut sz, mut deepest) = (zero, zero, zero, zero);
-                for (g, group) in nbr[row.clone()].chunks(4).enumerate() {
-                    let first = row.start + 4 * g;
-                    // Lanes past the row's end repeat its last partner and are masked.
-                    let js = [0, 1, 2, 3].map(|l| group[l.min(group.len() - 1)] as usize);
-                    assert!(js.iter().all(|&j| j < n), "listed pairs index particles");
-                    let rj = gather(r, &js);
-                    let (dx, dy, dz) = (
-                        xi - gather(x, &js),
-                        yi - gather(y, &js),
-                        zi - gather(z, &js),
-                    );
-                    let d2 = dx * dx + dy * dy + dz * dz;
-                    let rs = ri + rj;
-                    let touching = d2.cmp_lt(rs * rs) & row_mask[group.len() - 1];
-                    let out = &mut scale[first - pair_base..first - pair_base + group.len()];
-                    if touching.none() {
-                        store_lanes(out, zero);
-                        continue;
-                    }
-                    let d = d2.sqrt();
-                    // One division for both 1/d and 1/(r_i + r_j); zero in lanes apart.
-                    let q = touching.blend(f64x4::ONE / (d * rs), zero);
-                    let inv_d = q * rs;
-                    let delta = rs - d;
-                    let delta_dot = zero
-                        - ((vxi - gather(vx, &js)) * dx
-                            + (vyi - gather(vy, &js)) * dy
-                            + (vzi - gather(vz, &js)) * dz)
-                            * inv_d;
-                    let r_eff = ri * rj * (q * d);
-                    let (hf, damp) = table.lanes::<D>(mat[i], &js, mat);
-                    let f = hertz_normal_force::<f64x4, D>(
-                        hf,
-                        damp,
-                        (r_eff * delta).sqrt(),
-                        inv_mi + gather(inv_m, &js),
-                        delta,
-                        delta_dot,
-                    );
-                    let s = touching.blend(f * inv_d, zero);
-                    sx += s * dx;
-                    sy += s * dy;
-                    sz += s * dz;
-                    store_lanes(out, s);
-                    deepest = deepest.max(touching.blend(delta / ri.min(rj), zero));
-                }
-                let ratio = deepest.to_array().into_iter().fold(0.0, f64::max);
-                if ratio > 0.0 {
-                    worst = deeper(worst, (ratio, id[i]));
-                }
-                fx[k] = lane_sum(sx);
-                fy[k] = lane_sum(sy);
-                fz[k] = lane_sum(sz);
+            if sparse(scale.len(), fx.len()) {
+                flat_rows::<T, D>(&cols, list, table, c * CHUNK, [fx, fy, fz], scale)
+            } else {
+                owner_rows::<T, D>(&cols, list, table, c * CHUNK, [fx, fy, fz], scale)
             }
-            worst
         })
-        .reduce(|| (0.0, u32::MAX), deeper)
+        .reduce(|| (0.0, u32::MAX), deeper);
+    particles.force = force;
+    worst
+}
+
+/// Pass 1 over the rows `base..` of a chunk, one particle at a time: its pairs in lanes
+/// beside the particle's own values, the row sum kept in lanes.
+fn owner_rows<T: PairTable, D: NormalDamping>(
+    p: &Columns,
+    list: &VerletList,
+    table: &T,
+    base: usize,
+    [fx, fy, fz]: [&mut [f64]; 3],
+    scale: &mut [f64],
+) -> (f64, u32) {
+    let p = &p.cut();
+    let (start, nbr) = (&list.start[..], &list.neighbours[..]);
+    let zero = f64x4::ZERO;
+    let row_mask = group_masks();
+    let pair_base = start[base] as usize;
+    let mut worst = (0.0f64, u32::MAX);
+    for k in 0..fx.len() {
+        let i = base + k;
+        let row = start[i] as usize..start[i + 1] as usize;
+        if row.is_empty() {
+            (fx[k], fy[k], fz[k]) = (0.0, 0.0, 0.0);
+            continue;
+        }
+        let (xi, yi, zi) = (
+            f64x4::splat(p.x[i]),
+            f64x4::splat(p.y[i]),
+            f64x4::splat(p.z[i]),
+        );
+        let (vxi, vyi, vzi) = (
+            f64x4::splat(p.vx[i]),
+            f64x4::splat(p.vy[i]),
+            f64x4::splat(p.vz[i]),
+        );
+        let (ri, inv_mi) = (f64x4::splat(p.r[i]), f64x4::splat(p.inv_m[i]));
+        let (mut sx, mut sy, mut sz, mut deepest) = (zero, zero, zero, zero);
+        for (g, group) in nbr[row.clone()].chunks(4).enumerate() {
+            let first = row.start + 4 * g;
+            // Lanes past the row's end repeat its last partner and are masked.
+            let js = [0, 1, 2, 3].map(|l| group[l.min(group.len() - 1)] as usize);
+            assert!(js.iter().all(|&j| j < p.n), "listed pairs index particles");
+            let rj = gather(p.r, &js);
+            let (dx, dy, dz) = (
+                xi - gather(p.x, &js),
+                yi - gather(p.y, &js),
+                zi - gather(p.z, &js),
+            );
+            let d2 = dx * dx + dy * dy + dz * dz;
+            let rs = ri + rj;
+            let touching = d2.cmp_lt(rs * rs) & row_mask[group.len() - 1];
+            let out = &mut scale[first - pair_base..first - pair_base + group.len()];
+            if touching.none() {
+                store_lanes(out, zero);
+                continue;
+            }
+            let approach = (vxi - gather(p.vx, &js)) * dx
+                + (vyi - gather(p.vy, &js)) * dy
+                + (vzi - gather(p.vz, &js)) * dz;
+            let (s, ratio) = pair_scale::<D>(
+                table.lanes::<D>(p.mat[i], &js, p.mat),
+                touching,
+                [ri, rj],
+                d2,
+                approach,
+                inv_mi + gather(p.inv_m, &js),
+            );
+            sx += s * dx;
+            sy += s * dy;
+            sz += s * dz;
+            store_lanes(out, s);
+            deepest = deepest.max(ratio);
+        }
+        let ratio = deepest.to_array().into_iter().fold(0.0, f64::max);
+        if ratio > 0.0 {
+            worst = deeper(worst, (ratio, p.id[i]));
+        }
+        fx[k] = lane_sum(sx);
+        fy[k] = lane_sum(sy);
+        fz[k] = lane_sum(sz);
+    }
+    worst
+}
+
+/// Pass 1 over the rows `base..` of a sparse chunk, in pair order: four pairs at a time
+/// whatever rows they belong to, each pair force added to its owner's row sum in pair
+/// order. Groups with no contact (most, in a sparse chunk) cost a distance test.
+fn flat_rows<T: PairTable, D: NormalDamping>(
+    p: &Columns,
+    list: &VerletList,
+    table: &T,
+    base: usize,
+    [fx, fy, fz]: [&mut [f64]; 3],
+    scale: &mut [f64],
+) -> (f64, u32) {
+    let p = &p.cut();
+    fx.fill(0.0);
+    fy.fill(0.0);
+    fz.fill(0.0);
+    let pairs = list.start[base] as usize..list.start[base + fx.len()] as usize;
+    let (owner, nbr) = (&list.owner[pairs.clone()], &list.neighbours[pairs]);
+    let zero = f64x4::ZERO;
+    let row_mask = group_masks();
+    let mut worst = (0.0f64, u32::MAX);
+    for (g, (own, group)) in owner.chunks(4).zip(nbr.chunks(4)).enumerate() {
+        let m = group.len();
+        // Lanes past the chunk's last pair repeat it and are masked.
+        let is = [0, 1, 2, 3].map(|l| own[l.min(m - 1)] as usize);
+        let js = [0, 1, 2, 3].map(|l| group[l.min(m - 1)] as usize);
+        assert!(
+            is.iter().chain(&js).all(|&k| k < p.n),
+            "listed pairs index particles"
+        );
+        let (ri, rj) = (gather(p.r, &is), gather(p.r, &js));
+        let (dx, dy, dz) = (
+            gather(p.x, &is) - gather(p.x, &js),
+            gather(p.y, &is) - gather(p.y, &js),
+            gather(p.z, &is) - gather(p.z, &js),
+        );
+        let d2 = dx * dx + dy * dy + dz * dz;
+        let rs = ri + rj;
+        let touching = d2.cmp_lt(rs * rs) & row_mask[m - 1];
+        let out = &mut scale[4 * g..4 * g + m];
+        if touching.none() {
+            store_lanes(out, zero);
+            continue;
+        }
+        let approach = (gather(p.vx, &is) - gather(p.vx, &js)) * dx
+            + (gather(p.vy, &is) - gather(p.vy, &js)) * dy
+            + (gather(p.vz, &is) - gather(p.vz, &js)) * dz;
+        let (s, ratio) = pair_scale::<D>(
+            table.pair_lanes::<D>(&is, &js, p.mat),
+            touching,
+            [ri, rj],
+            d2,
+            approach,
+            gather(p.inv_m, &is) + gather(p.inv_m, &js),
+        );
+        store_lanes(out, s);
+        let (ax, ay, az, ratio) = (
+            (s * dx).to_array(),
+            (s * dy).to_array(),
+            (s * dz).to_array(),
+            ratio.to_array(),
+        );
+        for l in 0..m {
+            // Lanes out of contact add a zero: the sums do not change.
+            let k = is[l] - base;
+            fx[k] += ax[l];
+            fy[k] += ay[l];
+            fz[k] += az[l];
+            if ratio[l] > 0.0 {
+                worst = deeper(worst, (ratio[l], p.id[is[l]]));
+            }
+        }
+    }
+    worst
 }
 
 /// Pass 2: every particle adds the other half of the pairs it is partner in, then its
@@ -315,81 +519,126 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
     table: &T,
     walls: Option<(&Walls, &WallList)>,
 ) -> (f64, u32) {
-    let Particles {
-        position,
-        velocity,
-        radius,
-        inv_mass,
-        material,
-        force,
-        id,
-        ..
-    } = particles;
-    let [x, y, z] = &*position;
-    let [vx, vy, vz] = &*velocity;
-    let (r, inv_m, mat, id) = (&*radius, &*inv_mass, &*material, &*id);
-    let [fx, fy, fz] = force;
-    (
+    let mut force = std::mem::take(&mut particles.force);
+    let cols = Columns::new(particles);
+    let [fx, fy, fz] = &mut force;
+    let worst = (
         fx.par_chunks_mut(CHUNK),
         fy.par_chunks_mut(CHUNK),
         fz.par_chunks_mut(CHUNK),
     )
         .into_par_iter()
         .enumerate()
-        .map(|(c, (fx, fy, fz))| {
+        // `move`: the closure holds its own copy of the column slices, kept in registers.
+        .map(move |(c, (fx, fy, fz))| {
             let base = c * CHUNK;
-            let mut worst = (0.0f64, u32::MAX);
-            // A chunk of free particles (no partner pairs, no wall candidates: a falling
-            // cloud) keeps its row sums untouched.
             let end = base + fx.len();
-            let partnered = list.rev_start[base] != list.rev_start[end];
-            if !partnered && walls.is_none_or(|(_, wl)| wl.start[base] == wl.start[end]) {
+            let rows = base..end;
+            let partnered = (list.rev_start[end] - list.rev_start[base]) as usize;
+            let wall_rows = walls.filter(|(_, wl)| wl.start[base] != wl.start[end]);
+            if sparse(partnered, fx.len()) {
+                flat_partners(&cols, list, scale, base, [&mut *fx, &mut *fy, &mut *fz]);
+                let Some((walls, wl)) = wall_rows else {
+                    return (0.0, u32::MAX);
+                };
+                let mut worst = (0.0f64, u32::MAX);
+                for i in rows.filter(|&i| wl.start[i] != wl.start[i + 1]) {
+                    let k = i - base;
+                    let mut f = [fx[k], fy[k], fz[k]];
+                    let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
+                    if deepest > 0.0 {
+                        worst = deeper(worst, (deepest / cols.r[i], cols.id[i]));
+                    }
+                    [fx[k], fy[k], fz[k]] = f;
+                }
                 return worst;
             }
-            for k in 0..fx.len() {
-                let i = base + k;
-                let (xi, yi, zi) = (x[i], y[i], z[i]);
-                let (mut sx, mut sy, mut sz) = (fx[k], fy[k], fz[k]);
+            let mut worst = (0.0f64, u32::MAX);
+            for i in rows {
+                let k = i - base;
+                let (xi, yi, zi) = (cols.x[i], cols.y[i], cols.z[i]);
+                let mut f = [fx[k], fy[k], fz[k]];
                 let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
                 for (&p, &j) in list.rev_pairs[rev.clone()].iter().zip(&list.rev_owner[rev]) {
                     let (j, s) = (j as usize, scale[p as usize]);
-                    sx += s * (xi - x[j]);
-                    sy += s * (yi - y[j]);
-                    sz += s * (zi - z[j]);
+                    f[0] += s * (xi - cols.x[j]);
+                    f[1] += s * (yi - cols.y[j]);
+                    f[2] += s * (zi - cols.z[j]);
                 }
-                if let Some((walls, wl)) = walls {
-                    let ri = r[i];
-                    let mut deepest = 0.0f64;
-                    for &w in &wl.walls[wl.start[i] as usize..wl.start[i + 1] as usize] {
-                        let wall = &walls.list[w as usize];
-                        let Some((dist, n)) = wall_contact(&wall.shape, [xi, yi, zi], ri) else {
-                            continue;
-                        };
-                        let delta = ri - dist;
-                        let delta_dot = -(vx[i] * n[0] + vy[i] * n[1] + vz[i] * n[2]);
-                        let p = table.get(wall.material, mat[i]);
-                        let f = hertz_normal_force::<f64, D>(
-                            p.hertz_factor,
-                            D::coefficient(p),
-                            (ri * delta).sqrt(),
-                            inv_m[i],
-                            delta,
-                            delta_dot,
-                        );
-                        sx += f * n[0];
-                        sy += f * n[1];
-                        sz += f * n[2];
-                        deepest = deepest.max(delta);
-                    }
+                if let Some((walls, wl)) = wall_rows {
+                    let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
                     if deepest > 0.0 {
-                        worst = deeper(worst, (deepest / ri, id[i]));
+                        worst = deeper(worst, (deepest / cols.r[i], cols.id[i]));
                     }
                 }
-                fx[k] = sx;
-                fy[k] = sy;
-                fz[k] = sz;
+                [fx[k], fy[k], fz[k]] = f;
             }
             worst
         })
-        .reduce(|| (0.0, u32::MAX), deeper)
+        .reduce(|| (0.0, u32::MAX), deeper);
+    particles.force = force;
+    worst
+}
+
+/// Pass 2's pair halves for the rows `base..` of a sparse chunk, in the order of the
+/// reverse index (by particle, then by pair, as the per-particle loop): only the pairs in
+/// contact (s != 0, few in a sparse chunk) are looked up and added.
+fn flat_partners(
+    p: &Columns,
+    list: &VerletList,
+    scale: &[f64],
+    base: usize,
+    [fx, fy, fz]: [&mut [f64]; 3],
+) {
+    let row_start = &list.rev_start[base..=base + fx.len()];
+    let rev = row_start[0] as usize..row_start[fx.len()] as usize;
+    for (e, &pair) in rev.clone().zip(&list.rev_pairs[rev]) {
+        let s = scale[pair as usize];
+        if s == 0.0 {
+            continue;
+        }
+        // The particle whose reverse row holds entry e.
+        let k = row_start.partition_point(|&r| r as usize <= e) - 1;
+        let (i, j) = (base + k, list.rev_owner[e] as usize);
+        fx[k] += s * (p.x[i] - p.x[j]);
+        fy[k] += s * (p.y[i] - p.y[j]);
+        fz[k] += s * (p.z[i] - p.z[j]);
+    }
+}
+
+/// Adds the wall forces of particle `i` to `f`; returns its deepest wall overlap (zero if
+/// none).
+#[inline(always)]
+fn wall_forces<T: PairTable, D: NormalDamping>(
+    p: &Columns,
+    walls: &Walls,
+    wl: &WallList,
+    table: &T,
+    i: usize,
+    f: &mut [f64; 3],
+) -> f64 {
+    let (xi, ri) = ([p.x[i], p.y[i], p.z[i]], p.r[i]);
+    let mut deepest = 0.0f64;
+    for &w in &wl.walls[wl.start[i] as usize..wl.start[i + 1] as usize] {
+        let wall = &walls.list[w as usize];
+        let Some((dist, n)) = wall_contact(&wall.shape, xi, ri) else {
+            continue;
+        };
+        let delta = ri - dist;
+        let delta_dot = -(p.vx[i] * n[0] + p.vy[i] * n[1] + p.vz[i] * n[2]);
+        let params = table.get(wall.material, p.mat[i]);
+        let fn_ = hertz_normal_force::<f64, D>(
+            params.hertz_factor,
+            D::coefficient(params),
+            (ri * delta).sqrt(),
+            p.inv_m[i],
+            delta,
+            delta_dot,
+        );
+        f[0] += fn_ * n[0];
+        f[1] += fn_ * n[1];
+        f[2] += fn_ * n[2];
+        deepest = deepest.max(delta);
+    }
+    deepest
 }
