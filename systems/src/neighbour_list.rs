@@ -192,6 +192,22 @@ impl CellGrid {
         tile * TILE * TILE * TILE + ((c[2] % TILE) * TILE + c[1] % TILE) * TILE + c[0] % TILE
     }
 
+    /// The cells `cx - 1 ..= cx + 1` of a row of cells (clipped to the grid), as at most two
+    /// runs (first x, number of cells) of consecutive cell indices: a run breaks only
+    /// where the row crosses into the next tile. An unused run has length 0.
+    #[inline(always)]
+    pub fn x_runs(&self, cx: usize) -> [(usize, usize); 2] {
+        let lo = cx.saturating_sub(1);
+        let hi = (cx + 2).min(self.dims[0]);
+        // The first x of the next tile after `lo`, if the row reaches it.
+        let split = (lo / TILE + 1) * TILE;
+        if split < hi {
+            [(lo, split - lo), (split, hi - split)]
+        } else {
+            [(lo, hi - lo), (hi, 0)]
+        }
+    }
+
     /// Cell coordinates of cell index `c`.
     #[inline(always)]
     pub fn coords(&self, c: u32) -> [usize; 3] {
@@ -287,11 +303,14 @@ fn build_half_list(
                         nbrs.push(j as u32);
                     }
                 };
+                let runs = grid.x_runs(cx);
                 for gz in cz.saturating_sub(1)..(cz + 2).min(dims[2]) {
                     for gy in cy.saturating_sub(1)..(cy + 2).min(dims[1]) {
-                        for gx in cx.saturating_sub(1)..(cx + 2).min(dims[0]) {
+                        for &(gx, len) in runs.iter().filter(|r| r.1 > 0) {
+                            // A run of cells with consecutive indices: its members are
+                            // one range.
                             let c = grid.cell([gx, gy, gz]);
-                            let (m0, m1) = (cell_start[c] as usize, cell_start[c + 1] as usize);
+                            let (m0, m1) = (cell_start[c] as usize, cell_start[c + len] as usize);
                             match members {
                                 None => (m0.max(i + 1)..m1).for_each(&mut consider),
                                 Some(m) => m[m0..m1]
