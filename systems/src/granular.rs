@@ -26,7 +26,9 @@ use rayon::prelude::*;
 use wide::{f64x4, CmpGe, CmpGt, CmpLt};
 
 use crate::friction::coulomb_tangential_force;
-use crate::hertz::{hertz_normal_force, ConstantDamping, NormalDamping, RestitutionDamping};
+use crate::hertz::{
+    deeper, hertz_normal_force, ConstantDamping, NormalDamping, RestitutionDamping,
+};
 use crate::jkr::{
     jkr_contact_radius, jkr_critical_separation, jkr_equilibrium_radius, jkr_force_at_radius,
 };
@@ -363,15 +365,6 @@ pub fn granular_contact(
     health.max_overlap_ratio = worst.0;
     health.max_overlap_particle = worst.1;
     health.run_max_overlap_ratio = health.run_max_overlap_ratio.max(worst.0);
-}
-
-/// The deeper of two (overlap ratio, particle id) records; the smaller id on ties.
-fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
-    if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
-        b
-    } else {
-        a
-    }
 }
 
 #[inline(always)]

@@ -207,7 +207,7 @@ fn both_passes<T: PairTable, D: NormalDamping>(
 
 /// The deeper of two (overlap ratio, particle id) records; the smaller id on ties.
 #[inline(always)]
-fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
+pub(crate) fn deeper(a: (f64, u32), b: (f64, u32)) -> (f64, u32) {
     if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
         b
     } else {
