@@ -1,7 +1,9 @@
 //! Hertz normal contact with damping (Hertz 1896), between particles and with walls.
 //!
 //! The pair pass runs four pairs at a time in `wide::f64x4` lanes, with no branch on
-//! contact: lanes out of contact are masked.
+//! contact: lanes out of contact are masked. Dense chunks of rows take the pairs of one
+//! particle at a time; sparse chunks (a falling cloud) take them in list order, whatever
+//! row they belong to.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
