@@ -35,7 +35,7 @@ use crate::jkr::{
 use crate::real::{gather, group_masks, Real, V3};
 use crate::rolling::{rolling_resistance_force, rolling_velocity};
 use crate::walls::{wall_contact, wall_distance};
-use crate::{row_chunks, CHUNK};
+use crate::{row_chunks, Rows, CHUNK};
 
 /// Whether the scene needs this system (some pair has friction, rolling or adhesion).
 pub fn has_contact_laws(w: &World) -> bool {
@@ -374,37 +374,6 @@ fn gather3(cols: &[&[f64]; 3], js: &[usize; 4]) -> V3<f64x4> {
         gather(cols[1], js),
         gather(cols[2], js),
     )
-}
-
-/// The particle columns of the pair pass, each cut to the particle count `n`: a lane's
-/// index checked once against `n` needs no bounds check in the gathers that follow.
-struct Rows<'a> {
-    n: usize,
-    position: [&'a [f64]; 3],
-    velocity: [&'a [f64]; 3],
-    angular_velocity: [&'a [f64]; 3],
-    radius: &'a [f64],
-    inv_mass: &'a [f64],
-    material: &'a [u16],
-    id: &'a [u32],
-}
-
-impl<'a> Rows<'a> {
-    #[inline(always)]
-    fn of(p: &'a Particles) -> Self {
-        let n = p.len();
-        let cut = |c: &'a [Vec<f64>; 3]| [&c[0][..n], &c[1][..n], &c[2][..n]];
-        Self {
-            n,
-            position: cut(&p.position),
-            velocity: cut(&p.velocity),
-            angular_velocity: cut(&p.angular_velocity),
-            radius: &p.radius[..n],
-            inv_mass: &p.inv_mass[..n],
-            material: &p.material[..n],
-            id: &p.id[..n],
-        }
-    }
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -13,7 +13,7 @@ use wide::{f64x4, CmpLt};
 
 use crate::real::{gather, group_masks, lane_sum, store_lanes, Real};
 use crate::walls::wall_contact;
-use crate::{row_chunks, CHUNK};
+use crate::{row_chunks, Rows, CHUNK};
 
 /// Normal damping law of a scene (all pairs share one: mixing laws is rejected at load,
 /// so the kernel is compiled once per law and has no branch on it).
@@ -230,66 +230,10 @@ fn sparse(pairs: usize, particles: usize) -> bool {
     pairs < SPARSE_PAIRS_PER_PARTICLE * particles
 }
 
-/// The particle columns the passes read, cut to the particle count: a lane index checked
-/// once against `n` needs no bounds check in the gathers that follow.
-#[derive(Clone, Copy)]
-struct Columns<'a> {
-    n: usize,
-    x: &'a [f64],
-    y: &'a [f64],
-    z: &'a [f64],
-    r: &'a [f64],
-    vx: &'a [f64],
-    vy: &'a [f64],
-    vz: &'a [f64],
-    inv_m: &'a [f64],
-    mat: &'a [u16],
-    id: &'a [u32],
-}
-
-impl<'a> Columns<'a> {
-    fn new(p: &'a Particles) -> Self {
-        let ([x, y, z], [vx, vy, vz]) = (&p.position, &p.velocity);
-        Self {
-            n: p.len(),
-            x,
-            y,
-            z,
-            r: &p.radius,
-            vx,
-            vy,
-            vz,
-            inv_m: &p.inv_mass,
-            mat: &p.material,
-            id: &p.id,
-        }
-        .cut()
-    }
-
-    /// The columns sliced to `n`. Call it in the function that gathers: the compiler
-    /// then knows every column's length there.
-    #[inline(always)]
-    fn cut(&self) -> Self {
-        let n = self.n;
-        Self {
-            n,
-            x: &self.x[..n],
-            y: &self.y[..n],
-            z: &self.z[..n],
-            r: &self.r[..n],
-            vx: &self.vx[..n],
-            vy: &self.vy[..n],
-            vz: &self.vz[..n],
-            inv_m: &self.inv_m[..n],
-            mat: &self.mat[..n],
-            id: &self.id[..n],
-        }
-    }
-}
-
 /// s = F/d of four pairs (zero in lanes not `touching`) and their overlap over the
 /// smaller radius, from the radii, the squared distance `d2`, the approach product
-/// (v_i - v_j).(x_i - x_j) and 1/m_i + 1/m_j; `coefficients` as [`PairTable::lanes`].
+/// (v_i - v_j).(x_i - x_j) and 1/m_i + 1/m_j; (4/3) E* and the damping coefficient as
+/// [`PairTable::lanes`] gives them.
 #[inline(always)]
 fn pair_scale<D: NormalDamping>(
     (hf, damp): (f64x4, f64x4),
@@ -333,7 +277,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
 ) -> (f64, u32) {
     let n = particles.len();
     let mut force = std::mem::take(&mut particles.force);
-    let cols = Columns::new(particles);
+    let cols = Rows::of(particles);
     let [fx, fy, fz] = &mut force;
     let worst = (
         fx.par_chunks_mut(CHUNK),
@@ -358,7 +302,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
 /// Pass 1 over the rows `base..` of a chunk, one particle at a time: its pairs in lanes
 /// beside the particle's own values, the row sum kept in lanes.
 fn owner_rows<T: PairTable, D: NormalDamping>(
-    p: &Columns,
+    p: &Rows,
     list: &VerletList,
     table: &T,
     base: usize,
@@ -379,27 +323,27 @@ fn owner_rows<T: PairTable, D: NormalDamping>(
             continue;
         }
         let (xi, yi, zi) = (
-            f64x4::splat(p.x[i]),
-            f64x4::splat(p.y[i]),
-            f64x4::splat(p.z[i]),
+            f64x4::splat(p.position[0][i]),
+            f64x4::splat(p.position[1][i]),
+            f64x4::splat(p.position[2][i]),
         );
         let (vxi, vyi, vzi) = (
-            f64x4::splat(p.vx[i]),
-            f64x4::splat(p.vy[i]),
-            f64x4::splat(p.vz[i]),
+            f64x4::splat(p.velocity[0][i]),
+            f64x4::splat(p.velocity[1][i]),
+            f64x4::splat(p.velocity[2][i]),
         );
-        let (ri, inv_mi) = (f64x4::splat(p.r[i]), f64x4::splat(p.inv_m[i]));
+        let (ri, inv_mi) = (f64x4::splat(p.radius[i]), f64x4::splat(p.inv_mass[i]));
         let (mut sx, mut sy, mut sz, mut deepest) = (zero, zero, zero, zero);
         for (g, group) in nbr[row.clone()].chunks(4).enumerate() {
             let first = row.start + 4 * g;
             // Lanes past the row's end repeat its last partner and are masked.
             let js = [0, 1, 2, 3].map(|l| group[l.min(group.len() - 1)] as usize);
             assert!(js.iter().all(|&j| j < p.n), "listed pairs index particles");
-            let rj = gather(p.r, &js);
+            let rj = gather(p.radius, &js);
             let (dx, dy, dz) = (
-                xi - gather(p.x, &js),
-                yi - gather(p.y, &js),
-                zi - gather(p.z, &js),
+                xi - gather(p.position[0], &js),
+                yi - gather(p.position[1], &js),
+                zi - gather(p.position[2], &js),
             );
             let d2 = dx * dx + dy * dy + dz * dz;
             let rs = ri + rj;
@@ -409,16 +353,16 @@ fn owner_rows<T: PairTable, D: NormalDamping>(
                 store_lanes(out, zero);
                 continue;
             }
-            let approach = (vxi - gather(p.vx, &js)) * dx
-                + (vyi - gather(p.vy, &js)) * dy
-                + (vzi - gather(p.vz, &js)) * dz;
+            let approach = (vxi - gather(p.velocity[0], &js)) * dx
+                + (vyi - gather(p.velocity[1], &js)) * dy
+                + (vzi - gather(p.velocity[2], &js)) * dz;
             let (s, ratio) = pair_scale::<D>(
-                table.lanes::<D>(p.mat[i], &js, p.mat),
+                table.lanes::<D>(p.material[i], &js, p.material),
                 touching,
                 [ri, rj],
                 d2,
                 approach,
-                inv_mi + gather(p.inv_m, &js),
+                inv_mi + gather(p.inv_mass, &js),
             );
             sx += s * dx;
             sy += s * dy;
@@ -441,7 +385,7 @@ fn owner_rows<T: PairTable, D: NormalDamping>(
 /// whatever rows they belong to, each pair force added to its owner's row sum in pair
 /// order. Groups with no contact (most, in a sparse chunk) cost a distance test.
 fn flat_rows<T: PairTable, D: NormalDamping>(
-    p: &Columns,
+    p: &Rows,
     list: &VerletList,
     table: &T,
     base: usize,
@@ -466,11 +410,11 @@ fn flat_rows<T: PairTable, D: NormalDamping>(
             is.iter().chain(&js).all(|&k| k < p.n),
             "listed pairs index particles"
         );
-        let (ri, rj) = (gather(p.r, &is), gather(p.r, &js));
+        let (ri, rj) = (gather(p.radius, &is), gather(p.radius, &js));
         let (dx, dy, dz) = (
-            gather(p.x, &is) - gather(p.x, &js),
-            gather(p.y, &is) - gather(p.y, &js),
-            gather(p.z, &is) - gather(p.z, &js),
+            gather(p.position[0], &is) - gather(p.position[0], &js),
+            gather(p.position[1], &is) - gather(p.position[1], &js),
+            gather(p.position[2], &is) - gather(p.position[2], &js),
         );
         let d2 = dx * dx + dy * dy + dz * dz;
         let rs = ri + rj;
@@ -480,16 +424,16 @@ fn flat_rows<T: PairTable, D: NormalDamping>(
             store_lanes(out, zero);
             continue;
         }
-        let approach = (gather(p.vx, &is) - gather(p.vx, &js)) * dx
-            + (gather(p.vy, &is) - gather(p.vy, &js)) * dy
-            + (gather(p.vz, &is) - gather(p.vz, &js)) * dz;
+        let approach = (gather(p.velocity[0], &is) - gather(p.velocity[0], &js)) * dx
+            + (gather(p.velocity[1], &is) - gather(p.velocity[1], &js)) * dy
+            + (gather(p.velocity[2], &is) - gather(p.velocity[2], &js)) * dz;
         let (s, ratio) = pair_scale::<D>(
-            table.pair_lanes::<D>(&is, &js, p.mat),
+            table.pair_lanes::<D>(&is, &js, p.material),
             touching,
             [ri, rj],
             d2,
             approach,
-            gather(p.inv_m, &is) + gather(p.inv_m, &js),
+            gather(p.inv_mass, &is) + gather(p.inv_mass, &js),
         );
         store_lanes(out, s);
         let (ax, ay, az, ratio) = (
@@ -522,7 +466,7 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
     walls: Option<(&Walls, &WallList)>,
 ) -> (f64, u32) {
     let mut force = std::mem::take(&mut particles.force);
-    let cols = Columns::new(particles);
+    let cols = Rows::of(particles);
     let [fx, fy, fz] = &mut force;
     let worst = (
         fx.par_chunks_mut(CHUNK),
@@ -549,7 +493,7 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
                     let mut f = [fx[k], fy[k], fz[k]];
                     let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
                     if deepest > 0.0 {
-                        worst = deeper(worst, (deepest / cols.r[i], cols.id[i]));
+                        worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
                     }
                     [fx[k], fy[k], fz[k]] = f;
                 }
@@ -558,19 +502,23 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
             let mut worst = (0.0f64, u32::MAX);
             for i in rows {
                 let k = i - base;
-                let (xi, yi, zi) = (cols.x[i], cols.y[i], cols.z[i]);
+                let (xi, yi, zi) = (
+                    cols.position[0][i],
+                    cols.position[1][i],
+                    cols.position[2][i],
+                );
                 let mut f = [fx[k], fy[k], fz[k]];
                 let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
                 for (&p, &j) in list.rev_pairs[rev.clone()].iter().zip(&list.rev_owner[rev]) {
                     let (j, s) = (j as usize, scale[p as usize]);
-                    f[0] += s * (xi - cols.x[j]);
-                    f[1] += s * (yi - cols.y[j]);
-                    f[2] += s * (zi - cols.z[j]);
+                    f[0] += s * (xi - cols.position[0][j]);
+                    f[1] += s * (yi - cols.position[1][j]);
+                    f[2] += s * (zi - cols.position[2][j]);
                 }
                 if let Some((walls, wl)) = wall_rows {
                     let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
                     if deepest > 0.0 {
-                        worst = deeper(worst, (deepest / cols.r[i], cols.id[i]));
+                        worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
                     }
                 }
                 [fx[k], fy[k], fz[k]] = f;
@@ -586,7 +534,7 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
 /// reverse index (by particle, then by pair, as the per-particle loop): only the pairs in
 /// contact (s != 0, few in a sparse chunk) are looked up and added.
 fn flat_partners(
-    p: &Columns,
+    p: &Rows,
     list: &VerletList,
     scale: &[f64],
     base: usize,
@@ -602,9 +550,9 @@ fn flat_partners(
         // The particle whose reverse row holds entry e.
         let k = row_start.partition_point(|&r| r as usize <= e) - 1;
         let (i, j) = (base + k, list.rev_owner[e] as usize);
-        fx[k] += s * (p.x[i] - p.x[j]);
-        fy[k] += s * (p.y[i] - p.y[j]);
-        fz[k] += s * (p.z[i] - p.z[j]);
+        fx[k] += s * (p.position[0][i] - p.position[0][j]);
+        fy[k] += s * (p.position[1][i] - p.position[1][j]);
+        fz[k] += s * (p.position[2][i] - p.position[2][j]);
     }
 }
 
@@ -612,14 +560,17 @@ fn flat_partners(
 /// none).
 #[inline(always)]
 fn wall_forces<T: PairTable, D: NormalDamping>(
-    p: &Columns,
+    p: &Rows,
     walls: &Walls,
     wl: &WallList,
     table: &T,
     i: usize,
     f: &mut [f64; 3],
 ) -> f64 {
-    let (xi, ri) = ([p.x[i], p.y[i], p.z[i]], p.r[i]);
+    let (xi, ri) = (
+        [p.position[0][i], p.position[1][i], p.position[2][i]],
+        p.radius[i],
+    );
     let mut deepest = 0.0f64;
     for &w in &wl.walls[wl.start[i] as usize..wl.start[i + 1] as usize] {
         let wall = &walls.list[w as usize];
@@ -627,13 +578,14 @@ fn wall_forces<T: PairTable, D: NormalDamping>(
             continue;
         };
         let delta = ri - dist;
-        let delta_dot = -(p.vx[i] * n[0] + p.vy[i] * n[1] + p.vz[i] * n[2]);
-        let params = table.get(wall.material, p.mat[i]);
+        let delta_dot =
+            -(p.velocity[0][i] * n[0] + p.velocity[1][i] * n[1] + p.velocity[2][i] * n[2]);
+        let params = table.get(wall.material, p.material[i]);
         let fn_ = hertz_normal_force::<f64, D>(
             params.hertz_factor,
             D::coefficient(params),
             (ri * delta).sqrt(),
-            p.inv_m[i],
+            p.inv_mass[i],
             delta,
             delta_dot,
         );

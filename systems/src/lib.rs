@@ -53,6 +53,56 @@ pub fn body_acceleration_column(
     }
 }
 
+/// The particle columns of a contact pass, each cut to the particle count `n`: a lane's
+/// index checked once against `n` needs no bounds check in the gathers that follow.
+#[derive(Clone, Copy)]
+pub(crate) struct Rows<'a> {
+    pub n: usize,
+    pub position: [&'a [f64]; 3],
+    pub velocity: [&'a [f64]; 3],
+    pub angular_velocity: [&'a [f64]; 3],
+    pub radius: &'a [f64],
+    pub inv_mass: &'a [f64],
+    pub material: &'a [u16],
+    pub id: &'a [u32],
+}
+
+impl<'a> Rows<'a> {
+    #[inline(always)]
+    pub fn of(p: &'a grainflow_components::Particles) -> Self {
+        let n = p.len();
+        let cut = |c: &'a [Vec<f64>; 3]| [&c[0][..n], &c[1][..n], &c[2][..n]];
+        Self {
+            n,
+            position: cut(&p.position),
+            velocity: cut(&p.velocity),
+            angular_velocity: cut(&p.angular_velocity),
+            radius: &p.radius[..n],
+            inv_mass: &p.inv_mass[..n],
+            material: &p.material[..n],
+            id: &p.id[..n],
+        }
+    }
+
+    /// The same columns cut to `n` again: call it in the function that gathers, so that
+    /// the compiler knows every column's length there.
+    #[inline(always)]
+    pub fn cut(&self) -> Self {
+        let n = self.n;
+        let cut = |c: [&'a [f64]; 3]| [&c[0][..n], &c[1][..n], &c[2][..n]];
+        Self {
+            n,
+            position: cut(self.position),
+            velocity: cut(self.velocity),
+            angular_velocity: cut(self.angular_velocity),
+            radius: &self.radius[..n],
+            inv_mass: &self.inv_mass[..n],
+            material: &self.material[..n],
+            id: &self.id[..n],
+        }
+    }
+}
+
 /// Split `values` (`width` values per entry of a compressed-row list whose row `i` holds
 /// entries `start[i]..start[i+1]`) into the ranges of consecutive chunks of `CHUNK` rows,
 /// for `n` rows.
