@@ -93,7 +93,9 @@ fn run(n: usize, scheme: TimeScheme, dt: f64, upwind: f64, tol: f64) -> Run {
     cfg.scheme = scheme;
     cfg.upwind = upwind;
     cfg.momentum_rtol = tol;
-    let mut ns = ghia::cavity(n, LEVEL, (1usize << LEVEL) as f64 / n as f64, cfg);
+    let level: u32 = std::env::var("LEVEL").map_or(LEVEL, |v| v.parse().unwrap());
+    let cz: usize = std::env::var("CZ").map_or(1, |v| v.parse().unwrap());
+    let mut ns = ghia::cavity(n, level, cz, (cz << (level - 1)) as f64 / n as f64, cfg);
     let mut steady = false;
     while !steady && ns.time < T_MAX {
         let old = ns.u.clone();

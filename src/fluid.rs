@@ -43,7 +43,7 @@ pub fn fluid_grid(f: &Fluid, path: &Path) -> Result<Option<Grid>, SceneError> {
             file: path.to_path_buf(),
             field: match e {
                 GridError::EmptyBox { .. } => "fluid.max",
-                GridError::NoCells { .. } | GridError::PeriodicTooFewCells { .. } => "fluid.cells",
+                GridError::NoCells { .. } => "fluid.cells",
                 GridError::LevelZero => "fluid.level",
                 GridError::HalfPeriodic { .. } => "fluid.boundaries",
             }

@@ -74,10 +74,10 @@ pub const GHIA_V_400: [f64; 15] = [
 ];
 
 /// The cavity on level `level` of a grid with `n x n` cells in x-y (`n` divisible by
-/// `2^(level-1)`) and two coarse cells in z, the box `depth` thick; `cfg` gives the
+/// `2^(level-1)`) and `coarse_z` coarse cells in z, the box `depth` thick; `cfg` gives the
 /// viscosity `1/Re`, the time step and the scheme. Returns the solver at rest with the
 /// lid velocity set.
-pub fn cavity(n: usize, level: u32, depth: f64, cfg: NsConfig) -> NavierStokes {
+pub fn cavity(n: usize, level: u32, coarse_z: usize, depth: f64, cfg: NsConfig) -> NavierStokes {
     let coarse = n >> (level - 1);
     assert_eq!(
         coarse << (level - 1),
@@ -85,8 +85,14 @@ pub fn cavity(n: usize, level: u32, depth: f64, cfg: NsConfig) -> NavierStokes {
         "n = {n} is not a level-{level} grid"
     );
     let bc = [[Dirichlet; 2], [Dirichlet; 2], [Periodic; 2]];
-    let g = Grid::new([0.0; 3], [1.0, 1.0, depth], [coarse, coarse, 2], level, bc)
-        .expect("valid cavity grid");
+    let g = Grid::new(
+        [0.0; 3],
+        [1.0, 1.0, depth],
+        [coarse, coarse, coarse_z],
+        level,
+        bc,
+    )
+    .expect("valid cavity grid");
     let mut ns = NavierStokes::new(&g, cfg, g.dirichlet_mask());
     ns.set_side_velocity(1, 1, |_| [1.0, 0.0, 0.0]);
     ns

@@ -38,9 +38,6 @@ pub enum GridError {
     LevelZero,
     /// Only one side of a direction is periodic.
     HalfPeriodic { direction: usize },
-    /// A periodic direction needs at least two coarse cells (so that the two faces of a
-    /// cell are distinct unknowns).
-    PeriodicTooFewCells { direction: usize },
 }
 
 impl fmt::Display for GridError {
@@ -57,11 +54,6 @@ impl fmt::Display for GridError {
             GridError::HalfPeriodic { direction } => write!(
                 f,
                 "boundaries: only one side of {} is periodic",
-                AXIS[*direction]
-            ),
-            GridError::PeriodicTooFewCells { direction } => write!(
-                f,
-                "coarse: a periodic direction ({}) needs at least 2 cells",
                 AXIS[*direction]
             ),
         }
@@ -107,9 +99,6 @@ impl Grid {
             let per = bc[d].map(|k| k == BoundaryKind::Periodic);
             if per[0] != per[1] {
                 return Err(GridError::HalfPeriodic { direction: d });
-            }
-            if per[0] && coarse[d] < 2 {
-                return Err(GridError::PeriodicTooFewCells { direction: d });
             }
         }
         Ok(Grid {
@@ -412,6 +401,20 @@ mod tests {
         let lay = g.layout();
         assert_eq!(lay.upper(2, [0, 0, 1]), [0, 0, 0]);
         assert_eq!(lay.face_cells(2, [1, 1, 0])[0], Some([1, 1, 1]));
+    }
+
+    /// A periodic direction one cell thick (a quasi-2D box): one face layer, which is
+    /// both the lower and the upper face of every cell, with that cell on both sides.
+    #[test]
+    fn periodic_direction_of_one_cell() {
+        let mut bc = WALLS;
+        bc[2] = [Periodic; 2];
+        let g = Grid::new([0.0; 3], [1.0, 1.0, 0.5], [2, 2, 1], 1, bc).unwrap();
+        assert_eq!(g.num_faces(), 3 * 2 + 2 * 3 + 4);
+        let lay = g.layout();
+        assert_eq!(lay.upper(2, [1, 0, 0]), [1, 0, 0]);
+        assert_eq!(lay.face_cells(2, [1, 0, 0]), [Some([1, 0, 0]); 2]);
+        assert_eq!(g.h()[2], 0.5);
     }
 
     #[test]

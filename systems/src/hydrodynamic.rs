@@ -23,9 +23,8 @@ use bevy_ecs::prelude::*;
 use grainflow_components::{
     ContactLaws, Coupling, FluidFlow, ForceMethod, HydroForces, Particles, Rotation,
 };
-use grainflow_fluid::ops::add_gradient;
 use grainflow_fluid::sample::{cell_at, cell_stress};
-use grainflow_fluid::{FaceOperator, Grid};
+use grainflow_fluid::{Grid, ResidualWork};
 use rayon::prelude::*;
 
 use crate::fictitious::cell_range;
@@ -51,51 +50,11 @@ pub fn surface_point_force(
     (f, t)
 }
 
-/// The momentum residual of the flow per face and component,
-/// `R = (nu K + N(u)) u + B p` (density 1): the force per face that the fluid exerts
-/// against a prescribed velocity.
-pub fn momentum_residual(grid: &Grid, u: [&[f64]; 3], p: &[f64], nu: f64) -> [Vec<f64>; 3] {
-    let mut work = ResidualWork::default();
-    work.compute(grid, u, p, nu);
-    work.residual
-}
-
-/// [`momentum_residual`] with its operator (and convection tables) and its vectors kept
-/// from one fluid step to the next: refilled in place, not allocated afresh (fresh pages
-/// cost their faults and zeroing at every sampling).
-#[derive(Default)]
-pub struct ResidualWork {
-    operator: Option<FaceOperator>,
-    residual: [Vec<f64>; 3],
-}
-
-impl ResidualWork {
-    /// Computes the residual of the flow (`nu` the same at every call) into
-    /// `self.residual` and returns it.
-    pub fn compute(&mut self, grid: &Grid, u: [&[f64]; 3], p: &[f64], nu: f64) -> &[Vec<f64>; 3] {
-        let op = self
-            .operator
-            .take()
-            .unwrap_or_else(|| FaceOperator::lumped(grid, 0.0, nu))
-            .with_convection(grid, u);
-        let nf = grid.num_faces();
-        for (uc, rc) in u.iter().zip(self.residual.iter_mut()) {
-            rc.resize(nf, 0.0);
-            op.apply(uc, rc);
-        }
-        self.operator = Some(op);
-        {
-            let [r0, r1, r2] = &mut self.residual;
-            add_gradient(grid, p, 1.0, [r0, r1, r2]);
-        }
-        &self.residual
-    }
-}
-
 /// Force and torque on a sphere by the volume integral of the fictitious boundary
 /// method, `F = -int sigma . grad(alpha_h)`, evaluated with the discrete operators
-/// (module docs): minus the momentum residual `R` summed over the faces inside the
-/// sphere, scaled by the fluid density; torque `-sum (x_f - x_p) x R_f`.
+/// (module docs): minus the momentum residual `R` of the flow solver
+/// ([`grainflow_fluid::NavierStokes::momentum_residual`]) summed over the faces inside
+/// the sphere, scaled by the fluid density; torque `-sum (x_f - x_p) x R_f`.
 pub fn volume_integral_force(
     grid: &Grid,
     residual: &[Vec<f64>; 3],
@@ -203,7 +162,7 @@ pub fn hydrodynamic_sampling(
         let ns = &flow.solver;
         let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
         let residual = (coupling.method == ForceMethod::VolumeIntegral)
-            .then(|| work.compute(grid, u, p, coupling.viscosity));
+            .then(|| ns.momentum_residual(&mut work));
         let ft: Vec<([f64; 3], [f64; 3])> = (0..particles.len())
             .into_par_iter()
             .map(|i| {
