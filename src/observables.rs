@@ -17,7 +17,6 @@
 use bevy_ecs::prelude::*;
 use grainflow_components::{Clamped, Coupling, FluidFlow, HydroForces, Particles, SimClock};
 use grainflow_fluid::sample::velocity_at;
-use grainflow_fluid::ResidualWork;
 use grainflow_systems::hydrodynamic::{surface_point_force, volume_integral_force};
 use serde_json::json;
 
@@ -174,12 +173,10 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
         if let Some(coupling) = world.get_resource::<Coupling>() {
             let ns = &flow.solver;
             let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
-            let mut work = ResidualWork::default();
-            let residual = ns.momentum_residual(&mut work);
             for (name, force) in [
                 (
                     "drag_coefficient_volume_integral",
-                    volume_integral_force(grid, residual, coupling, xp, r).0,
+                    volume_integral_force(ns, coupling, xp, r).0,
                 ),
                 (
                     "drag_coefficient_surface_points",

@@ -346,11 +346,11 @@ fn schiller_naumann(re: f64) -> f64 {
 }
 
 /// Without velocity blending the steady drag is a property of the steady flow, not of
-/// the time step: dt_F = 0.02 and 0.05 agree to 0.5 % (measured 1.45736 and 1.45733;
-/// the seed's full grid at level 2: 1.490 at both). The negative control: the seed's
-/// blending u = (1 - phi) u + phi U with alpha = 0.1, a relaxation applied once per fluid
-/// step, moves the steady drag with dt_F by more than 5 % (measured 1.916 at 0.02 and
-/// 1.598 at 0.05).
+/// the time step: dt_F = 0.02 and 0.05 agree to 0.5 % (measured 1.31153 and 1.31149;
+/// the seed's full grid at level 2: 1.247). The negative control: the seed's blending
+/// u = (1 - phi) u + phi U with alpha = 0.1, a relaxation applied once per fluid step,
+/// moves the steady drag with dt_F by more than 5 % (measured 1.821 at 0.02 and 1.470 at
+/// 0.05).
 #[test]
 fn steady_drag_does_not_depend_on_the_fluid_time_step() {
     let mut cd = Vec::new();
@@ -383,7 +383,7 @@ fn steady_drag_does_not_depend_on_the_fluid_time_step() {
 /// and 12 cells). Steady state by backward-Euler steps of dt_F = 0.05 (U dt / h = 4.8 at
 /// level 4; 0.1 oscillates at level 2) to t = 2.5 (two flow-throughs); steadiness
 /// checked to 0.5 % (level 4 still drifts by 0.3 %), well below the changes compared.
-/// Measured: 1.457, 1.837, 1.732 (differences 0.38 and 0.10). The narrow channel
+/// Measured: 1.312, 1.794, 1.726 (differences 0.48 and 0.068). The narrow channel
 /// (sphere diameter a quarter of the width) raises C_D by ~9 % over the seed's 2 x 2
 /// channel: there, level 4 gives 1.586, +3.1 % from Schiller-Naumann's 1.538 (a 16 min
 /// run, so not a test; figures in docs/coupling.md).

@@ -156,50 +156,75 @@ impl Convection {
     /// in `cells`: the storage of an earlier convection (no fresh allocation, hence no page
     /// faults, on the same grid: one convection per substep), or an empty vector.
     pub fn new_in(mut cells: Vec<[f64; 24]>, grid: &Grid, nu: f64, w: [&[f64]; 3]) -> Self {
-        let lay = grid.layout();
+        let geometry = ConvectionGeometry::of(grid);
+        // Every entry is written below.
+        cells.resize(grid.num_cells(), [0.0; 24]);
+        cells
+            .par_iter_mut()
+            .with_min_len(MIN_TASK / 24)
+            .enumerate()
+            .for_each(|(c, out)| *out = geometry.cell_record(nu, w, c));
+        Convection { cells }
+    }
+}
+
+/// What the convection records of a grid's cells share: the layout, the face areas and
+/// `|A_ij| / l_ij` per family pair (see [`Convection`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ConvectionGeometry {
+    layout: Layout,
+    area: [f64; 3],
+    coupling: [f64; 3],
+}
+
+impl ConvectionGeometry {
+    pub(crate) fn of(grid: &Grid) -> Self {
         let h = grid.h();
         let area = [0, 1, 2].map(|a| grid.face_area(a));
-        // |A_ij| / l_ij per family pair
         let mut coupling = [0.0; 3];
         for (a, b) in [(0, 1), (0, 2), (1, 2)] {
             let amag = (area[a] * area[a] + area[b] * area[b]).sqrt() / 4.0;
             let dist = (h[a] * h[a] + h[b] * h[b]).sqrt() / 2.0;
             coupling[pair_index(a, b)] = amag / dist;
         }
-        // Every entry is written below.
-        cells.resize(lay.num_cells(), [0.0; 24]);
-        cells
-            .par_iter_mut()
-            .with_min_len(MIN_TASK / 24)
-            .enumerate()
-            .for_each(|(c, out)| {
-                let cc = lay.cell_coords(c);
-                let faces = [0, 1, 2].map(|a| [lay.face(a, cc), lay.face(a, lay.upper(a, cc))]);
-                let sum = [0, 1, 2].map(|q| faces.iter().flatten().map(|&f| w[q][f]).sum::<f64>());
-                for (a, b) in [(0, 1), (0, 2), (1, 2)] {
-                    let k = pair_index(a, b);
-                    for sa in 0..2 {
-                        for sb in 0..2 {
-                            let (fi, fj) = (faces[a][sa], faces[b][sb]);
-                            let centroid =
-                                |q: usize| 2.0 / 3.0 * (w[q][fi] + w[q][fj]) - sum[q] / 18.0;
-                            let sign = |s: usize| if s == 1 { 1.0 } else { -1.0 };
-                            let d = area[b] / 4.0 * sign(sb) * centroid(b)
-                                - area[a] / 4.0 * sign(sa) * centroid(a);
-                            let e = if nu > 0.0 {
-                                let r = d.abs() / (nu * coupling[k]);
-                                d.abs() * r / (2.0 * (2.0 + r))
-                            } else {
-                                0.5 * d.abs()
-                            };
-                            let idx = 4 * k + 2 * sa + sb;
-                            out[idx] = d;
-                            out[12 + idx] = e;
-                        }
-                    }
+        ConvectionGeometry {
+            layout: grid.layout(),
+            area,
+            coupling,
+        }
+    }
+
+    /// The record of cell `c` (fluxes `d` and weights `e`, see [`Convection`]) for the
+    /// convecting velocity `w` and the viscosity `nu` of the Samarskij weights.
+    #[inline]
+    pub(crate) fn cell_record(&self, nu: f64, w: [&[f64]; 3], c: usize) -> [f64; 24] {
+        let (lay, area, coupling) = (&self.layout, &self.area, &self.coupling);
+        let mut out = [0.0; 24];
+        let cc = lay.cell_coords(c);
+        let faces = [0, 1, 2].map(|a| [lay.face(a, cc), lay.face(a, lay.upper(a, cc))]);
+        let sum = [0, 1, 2].map(|q| faces.iter().flatten().map(|&f| w[q][f]).sum::<f64>());
+        for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+            let k = pair_index(a, b);
+            for sa in 0..2 {
+                for sb in 0..2 {
+                    let (fi, fj) = (faces[a][sa], faces[b][sb]);
+                    let centroid = |q: usize| 2.0 / 3.0 * (w[q][fi] + w[q][fj]) - sum[q] / 18.0;
+                    let sign = |s: usize| if s == 1 { 1.0 } else { -1.0 };
+                    let d = area[b] / 4.0 * sign(sb) * centroid(b)
+                        - area[a] / 4.0 * sign(sa) * centroid(a);
+                    let e = if nu > 0.0 {
+                        let r = d.abs() / (nu * coupling[k]);
+                        d.abs() * r / (2.0 * (2.0 + r))
+                    } else {
+                        0.5 * d.abs()
+                    };
+                    let idx = 4 * k + 2 * sa + sb;
+                    out[idx] = d;
+                    out[12 + idx] = e;
                 }
-            });
-        Convection { cells }
+            }
+        }
+        out
     }
 }
 
@@ -314,6 +339,37 @@ impl FaceOperator {
     /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`.
     #[inline]
     pub(crate) fn row(&self, a: usize, f: [usize; 3], x: &[f64]) -> (f64, f64) {
+        let conv = self.conv.as_ref();
+        self.row_with(a, f, x, |c| conv.map(|conv| &conv.cells[c]))
+    }
+
+    /// Row `f` of family `a` of `A x` with the convection of the velocity `w` (the row
+    /// of `self.with_convection(grid, w).apply(x, ..)`, operation for operation), from
+    /// the records of the face's two cells alone: no table over the grid. `self` carries
+    /// no convection of its own.
+    pub(crate) fn apply_at(
+        &self,
+        geometry: &ConvectionGeometry,
+        w: [&[f64]; 3],
+        a: usize,
+        f: [usize; 3],
+        x: &[f64],
+    ) -> f64 {
+        debug_assert!(self.conv.is_none(), "apply_at brings its own convection");
+        let (diag, off) = self.row_with(a, f, x, |c| Some(geometry.cell_record(self.nu, w, c)));
+        diag * x[self.layout.face(a, f)] + off
+    }
+
+    /// [`FaceOperator::row`] with the convection record of cell `c` from `conv(c)`
+    /// (`None`: no convection).
+    #[inline]
+    fn row_with<R: std::borrow::Borrow<[f64; 24]>>(
+        &self,
+        a: usize,
+        f: [usize; 3],
+        x: &[f64],
+        conv: impl Fn(usize) -> Option<R>,
+    ) -> (f64, f64) {
         let lay = &self.layout;
         let mut diag = 0.0;
         let mut off = 0.0;
@@ -332,10 +388,10 @@ impl FaceOperator {
             ];
             off +=
                 self.adj[a][b0] * (xb[0][0] + xb[0][1]) + self.adj[a][b1] * (xb[1][0] + xb[1][1]);
-            if let Some(conv) = &self.conv {
+            if let Some(data) = conv(lay.cell(c)) {
                 // see [`Convection`]: sum_j d_ij (2/3 (v_i + v_j) - S_T/18 - v_i)
                 // + e_ij (v_i - v_j); `rest` = S_T - v_i
-                let data = &conv.cells[lay.cell(c)];
+                let data: &[f64; 24] = data.borrow();
                 let sa = 1 - side;
                 let rest = x_opp + xb[0][0] + xb[0][1] + xb[1][0] + xb[1][1];
                 for (q, b) in [b0, b1].into_iter().enumerate() {
@@ -652,12 +708,7 @@ impl TransposeStiffness {
         let lay = &self.layout;
         let mut y = y;
         for c in 0..lay.num_cells() {
-            let cc = lay.cell_coords(c);
-            let mut faces = [0usize; 6];
-            for a in 0..3 {
-                faces[2 * a] = lay.face(a, cc);
-                faces[2 * a + 1] = lay.face(a, lay.upper(a, cc));
-            }
+            let faces = self.cell_faces(lay.cell_coords(c));
             let local = u.map(|uj| faces.map(|f| uj[f]));
             for (i, yi) in y.iter_mut().enumerate() {
                 for (f, &fi) in faces.iter().enumerate() {
@@ -667,6 +718,57 @@ impl TransposeStiffness {
                         acc += row.iter().zip(lj).map(|(e, v)| e * v).sum::<f64>();
                     }
                     yi[fi] += s * acc;
+                }
+            }
+        }
+    }
+}
+
+impl TransposeStiffness {
+    /// The six faces of cell `cc` in the order of the element entries (lower, upper per
+    /// family).
+    #[inline]
+    fn cell_faces(&self, cc: [usize; 3]) -> [usize; 6] {
+        let lay = &self.layout;
+        let mut faces = [0usize; 6];
+        for a in 0..3 {
+            faces[2 * a] = lay.face(a, cc);
+            faces[2 * a + 1] = lay.face(a, lay.upper(a, cc));
+        }
+        faces
+    }
+
+    /// `y += s (K_T u)_F` for the one face `F` (index `fi`, family `a`, coordinates `f`),
+    /// all three components: the contributions of its cells in the order of
+    /// [`TransposeStiffness::apply_add`] (cells by index, element slots in order), so the
+    /// sums equal that row of it.
+    pub(crate) fn add_at(
+        &self,
+        s: f64,
+        u: [&[f64]; 3],
+        (fi, a, f): (usize, usize, [usize; 3]),
+        y: &mut [f64; 3],
+    ) {
+        let lay = &self.layout;
+        let mut cells: Vec<usize> = lay
+            .face_cells(a, f)
+            .iter()
+            .flatten()
+            .map(|&c| lay.cell(c))
+            .collect();
+        cells.sort_unstable();
+        cells.dedup();
+        for c in cells {
+            let faces = self.cell_faces(lay.cell_coords(c));
+            let local = u.map(|uj| faces.map(|g| uj[g]));
+            for (i, yi) in y.iter_mut().enumerate() {
+                for (slot, _) in faces.iter().enumerate().filter(|(_, &g)| g == fi) {
+                    let mut acc = 0.0;
+                    for (j, lj) in local.iter().enumerate() {
+                        let row = &self.e[i][j][slot];
+                        acc += row.iter().zip(lj).map(|(e, v)| e * v).sum::<f64>();
+                    }
+                    *yi += s * acc;
                 }
             }
         }
@@ -719,13 +821,20 @@ pub fn add_gradient(grid: &Grid, p: &[f64], s: f64, u: [&mut [f64]; 3]) {
             .for_each(|(r, row)| {
                 let (j, k) = (r % d[1], r / d[1]);
                 for (i, o) in row.iter_mut().enumerate() {
-                    let [m, pl] = lay.face_cells(a, [i, j, k]);
-                    let pm = m.map_or(0.0, |c| p[lay.cell(c)]);
-                    let pp = pl.map_or(0.0, |c| p[lay.cell(c)]);
-                    *o += s * area * (pp - pm);
+                    *o += s * area * pressure_jump(&lay, p, a, [i, j, k]);
                 }
             });
     }
+}
+
+/// `p_plus - p_minus` across face `f` of family `a` (a cell outside the box counting as
+/// `p = 0`): `(B p)_F = |F|` times it.
+#[inline]
+pub(crate) fn pressure_jump(lay: &Layout, p: &[f64], a: usize, f: [usize; 3]) -> f64 {
+    let [m, pl] = lay.face_cells(a, f);
+    let pm = m.map_or(0.0, |c| p[lay.cell(c)]);
+    let pp = pl.map_or(0.0, |c| p[lay.cell(c)]);
+    pp - pm
 }
 
 /// Adds the do-nothing boundary load `-int_G p_b n . v dA` of the constant pressures

@@ -24,7 +24,7 @@ use grainflow_components::{
     ContactLaws, Coupling, FluidFlow, ForceMethod, HydroForces, Particles, Rotation,
 };
 use grainflow_fluid::sample::{cell_at, cell_stress};
-use grainflow_fluid::{Grid, ResidualWork};
+use grainflow_fluid::{Grid, NavierStokes};
 use rayon::prelude::*;
 
 use crate::fictitious::cell_range;
@@ -53,19 +53,21 @@ pub fn surface_point_force(
 /// Force and torque on a sphere by the volume integral of the fictitious boundary
 /// method, `F = -int sigma . grad(alpha_h)`, evaluated with the discrete operators
 /// (module docs): minus the momentum residual `R` of the flow solver
-/// ([`grainflow_fluid::NavierStokes::momentum_residual`]) summed over the faces inside
-/// the sphere, scaled by the fluid density; torque `-sum (x_f - x_p) x R_f`.
+/// ([`NavierStokes::momentum_residual_at`], computed at the faces inside the sphere
+/// only) summed over those faces, scaled by the fluid density; torque
+/// `-sum (x_f - x_p) x R_f`.
 pub fn volume_integral_force(
-    grid: &Grid,
-    residual: &[Vec<f64>; 3],
+    ns: &NavierStokes,
     coupling: &Coupling,
     xp: [f64; 3],
     r: f64,
 ) -> ([f64; 3], [f64; 3]) {
+    let grid = ns.grid();
     let lay = grid.layout();
     let h = grid.h();
-    let (mut f, mut t) = ([0.0; 3], [0.0; 3]);
     let range = cell_range(grid.lower, h, lay.n, xp, r);
+    let mut faces = Vec::new();
+    let mut arms = Vec::new();
     for a in 0..3 {
         // the a-faces of the cells in range: lower faces, plus the upper layer
         let mut hi = [range[0].1, range[1].1, range[2].1];
@@ -78,15 +80,18 @@ pub fn volume_integral_force(
                     let fc = [i, j, k];
                     let x = grid.face_centre(a, fc);
                     let arm = [0, 1, 2].map(|d| x[d] - xp[d]);
-                    if arm.iter().map(|v| v * v).sum::<f64>() >= r * r {
-                        continue;
+                    if arm.iter().map(|v| v * v).sum::<f64>() < r * r {
+                        faces.push((a, fc));
+                        arms.push(arm);
                     }
-                    let idx = lay.face(a, fc);
-                    let df = [0, 1, 2].map(|c| -coupling.fluid_density * residual[c][idx]);
-                    add_force(&mut f, &mut t, arm, df);
                 }
             }
         }
+    }
+    let (mut f, mut t) = ([0.0; 3], [0.0; 3]);
+    for (arm, res) in arms.into_iter().zip(ns.momentum_residual_at(&faces)) {
+        let df = res.map(|v| -coupling.fluid_density * v);
+        add_force(&mut f, &mut t, arm, df);
     }
     (f, t)
 }
@@ -154,23 +159,20 @@ pub fn hydrodynamic_sampling(
     mut hydro: ResMut<HydroForces>,
     mut particles: ResMut<Particles>,
     mut rotation: ResMut<Rotation>,
-    mut work: Local<ResidualWork>,
 ) {
     let _span = tracing::info_span!("hydrodynamic_sampling").entered();
     if flow.stats.steps > hydro.sampled_steps {
         hydro.sampled_steps = flow.stats.steps;
         let ns = &flow.solver;
         let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
-        let residual = (coupling.method == ForceMethod::VolumeIntegral)
-            .then(|| ns.momentum_residual(&mut work));
         let ft: Vec<([f64; 3], [f64; 3])> = (0..particles.len())
             .into_par_iter()
             .map(|i| {
                 let xp = [0, 1, 2].map(|d| particles.position[d][i]);
                 let r = particles.radius[i];
-                match &residual {
-                    None => surface_point_force(grid, u, p, &coupling, xp, r),
-                    Some(res) => volume_integral_force(grid, res, &coupling, xp, r),
+                match coupling.method {
+                    ForceMethod::SurfacePoints => surface_point_force(grid, u, p, &coupling, xp, r),
+                    ForceMethod::VolumeIntegral => volume_integral_force(ns, &coupling, xp, r),
                 }
             })
             .collect();
