@@ -1,9 +1,10 @@
 //! Run time against error for the fluid solver: the lid-driven cavity at Re = 100 (Ghia,
 //! Ghia & Shin 1982, J. Comput. Phys. 48:387; `grainflow_fluid::ghia`) from rest to a
-//! steady state on `n x n` cells in x-y (n = 32, 64, 128; periodic in z, two coarse cells
-//! thick), with backward Euler and fractional-step theta at several time steps up to the
+//! steady state on `n x n` cells in x-y (n = 32, 64, 128, 160, 192; periodic in z, one
+//! coarse cell thick), with backward Euler and fractional-step theta at several time steps up to the
 //! scheme's CFL limit (`U dt/h` <= 32 and 8, crate docs of `grainflow-fluid`) and the
-//! Samarskij upwind scale 1 and 0.1 (`NsConfig::upwind`), on 2 threads. Prints, per run,
+//! Samarskij upwind scale 1 and 0.1, and 0.05 from n = 128 (`NsConfig::upwind`), on 2
+//! threads. Prints, per run,
 //! the steps and wall seconds to the steady state and the largest deviation of u on
 //! x = 0.5 and of v on y = 0.5 from Ghia's table, and of u at the five heights the OpenFOAM
 //! harness (/work/shared/bench/openfoam, `ghia.py`) compares; docs/fluid-benchmarks.md
@@ -43,12 +44,14 @@ const THREADS: usize = 2;
 const RE: f64 = 100.0;
 
 /// Runs: grid size, scheme, CFL number `U dt/h`, momentum tolerance
-/// (`NsConfig::momentum_rtol`; 1e-6 is the default), each with upwind scale 1 and 0.1.
+/// (`NsConfig::momentum_rtol`; 1e-6 is the default), each with upwind scale 1 and 0.1
+/// (and 0.05 from n = 128). The 160^2 and 192^2 rows (dt = 0.5, as the fastest 128^2 row)
+/// show where the deviation from Ghia's table levels off.
 /// Backward Euler beyond `U dt/h` = 32 tests where its limit lies on finer grids: it is in
 /// `dt` rather than in `U dt/h` (64^2: dt = 1 settles, dt = 2 does not).
 /// Not in the table: fractional-step theta on 128^2 (about 220 steps of three substeps to
 /// the steady state at `U dt/h` = 8, several minutes).
-const RUNS: [(usize, TimeScheme, f64, f64); 15] = {
+const RUNS: [(usize, TimeScheme, f64, f64); 17] = {
     use TimeScheme::{BackwardEuler as Be, FractionalStepTheta as Fs};
     [
         (32, Fs, 1.0, 1e-6),
@@ -66,16 +69,23 @@ const RUNS: [(usize, TimeScheme, f64, f64); 15] = {
         (128, Be, 32.0, 1e-3),
         (128, Be, 64.0, 1e-3),
         (128, Be, 128.0, 1e-3),
+        (160, Be, 80.0, 1e-3),
+        (192, Be, 96.0, 1e-3),
     ]
 };
 
-/// Multigrid level of every grid: coarse grids of `n/4 x n/4 x 2` cells, so the box is 8
-/// cells thick in z (cubic cells, `depth = 8/n`). Measured (2 threads, loaded machine,
-/// backward Euler at `U dt/h` = 32): on 64^2 55 steps took 38 s on level 2 (4 cells
-/// thick, coarse 32 x 32 x 2), 19 s on level 3 and 46 s on level 4 (16 cells thick); on
-/// 128^2 a step took 1.7 s on level 3 and 3.8 s on level 4. A larger coarse grid makes
-/// the serial coarsest-grid solves dear, a thicker box the fine-grid work.
+/// Multigrid level of every grid: coarse grids of `n/4 x n/4 x 1` cells (one coarse cell
+/// thick in the periodic z), so the box is 4 cells thick in z (cubic cells,
+/// `depth = 4/n`). Measured on 128^2 (backward Euler, `U dt/h` = 64, 2 threads, idle,
+/// 2026-11-29): 11.2 s to the steady state on level 3 (coarse 32 x 32 x 1) against
+/// 28.8 s on level 2 (coarse 64 x 64 x 1, 2 cells thick: the serial coarsest-grid solves
+/// dominate) and 22.4 s with two coarse cells in z (8 cells thick, the only choice before
+/// a periodic direction could be one coarse cell thick); the same steps and deviations
+/// from Ghia on 4 and 8 cells (the flow does not depend on z).
 const LEVEL: u32 = 3;
+
+/// Cells in z on level [`LEVEL`] (one coarse cell).
+const THICKNESS: usize = 1 << (LEVEL - 1);
 
 struct Run {
     steps: usize,
@@ -93,9 +103,7 @@ fn run(n: usize, scheme: TimeScheme, dt: f64, upwind: f64, tol: f64) -> Run {
     cfg.scheme = scheme;
     cfg.upwind = upwind;
     cfg.momentum_rtol = tol;
-    let level: u32 = std::env::var("LEVEL").map_or(LEVEL, |v| v.parse().unwrap());
-    let cz: usize = std::env::var("CZ").map_or(1, |v| v.parse().unwrap());
-    let mut ns = ghia::cavity(n, level, cz, (cz << (level - 1)) as f64 / n as f64, cfg);
+    let mut ns = ghia::cavity(n, LEVEL, 1, THICKNESS as f64 / n as f64, cfg);
     let mut steady = false;
     while !steady && ns.time < T_MAX {
         let old = ns.u.clone();
@@ -153,12 +161,19 @@ fn main() {
         {
             continue;
         }
-        for upwind in [1.0, 0.1] {
+        // 0.05 only where the cell Peclet number U h / nu is below 1 (n >= 128; a scale
+        // of 0.03 made the Re = 400 iteration diverge on 32^2, see the solver's tests)
+        let upwinds: &[f64] = if n >= 128 {
+            &[1.0, 0.1, 0.05]
+        } else {
+            &[1.0, 0.1]
+        };
+        for &upwind in upwinds {
             let dt = cfl / n as f64;
             let r = pool.install(|| run(n, scheme, dt, upwind, tol));
             println!(
                 "| {n} | {} | {scheme:?} | {cfl} | {dt:.4} | {upwind} | {tol:e} | {} | {:.2} | {} | {:.1} | {:.2e} | {:.2e} | {:.2e} |",
-                (n * n) << LEVEL,
+                n * n * THICKNESS,
                 r.steps,
                 r.time,
                 if r.steady { "yes" } else { "no" },
