@@ -385,7 +385,7 @@ fn steady_drag_does_not_depend_on_the_fluid_time_step() {
 /// checked to 0.5 % (level 4 still drifts by 0.3 %), well below the changes compared.
 /// Measured: 1.312, 1.794, 1.726 (differences 0.48 and 0.068). The narrow channel
 /// (sphere diameter a quarter of the width) raises C_D by ~9 % over the seed's 2 x 2
-/// channel: there, level 4 gives 1.586, +3.1 % from Schiller-Naumann's 1.538 (a 16 min
+/// channel: there, level 4 gives 1.581, +2.8 % from Schiller-Naumann's 1.538 (a 16 min
 /// run, so not a test; figures in docs/coupling.md).
 #[test]
 fn drag_coefficient_converges_with_the_grid_level() {
