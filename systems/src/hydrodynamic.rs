@@ -18,7 +18,9 @@
 //!   (face value 1 when the face centre lies inside the sphere), whose cell mean gradient
 //!   is `1/|T| sum_f alpha_f n_f |f|`; so `F = -sum_T sigma_T . sum_f alpha_f n_f |f|`
 //!   and `T = -sum_T (x_T - x_p) x (sigma_T . sum_f alpha_f n_f |f|)` over the cells where
-//!   `alpha_h` is not constant (those the surface cuts).
+//!   `alpha_h` is not constant (those the surface cuts). Evaluated with the solver's
+//!   discrete operators, this is minus its momentum residual summed over the faces inside
+//!   the sphere ([`volume_integral_force`]), computed at those faces only.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     ContactLaws, Coupling, FluidFlow, ForceMethod, HydroForces, Particles, Rotation,
