@@ -32,7 +32,7 @@ pub enum Command {
 #[derive(Args, Debug)]
 pub struct RunArgs {
     pub scene: PathBuf,
-    /// Output directory (default out/<scene name>).
+    /// Output directory (default `out/SCENE`, SCENE the scene file name without extension).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Run until this simulated time, s (default: the scene's end_time).

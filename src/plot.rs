@@ -58,7 +58,7 @@ pub struct ContourArgs {
     /// Frame of this step number.
     #[arg(long)]
     pub step: Option<u64>,
-    /// Output PNG (default RUN_DIR/<field>_<plane>_<step>.png).
+    /// Output PNG (default `RUN_DIR/FIELD_PLANE_STEP.png`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Image size in pixels, WIDTHxHEIGHT.
@@ -82,7 +82,7 @@ pub struct SeriesArgs {
     /// Particle ids, e.g. 0,1 (default: every particle, at most 12).
     #[arg(long, value_delimiter = ',')]
     pub ids: Vec<u32>,
-    /// Output PNG (default RUN_DIR/<quantity>_<component>.png).
+    /// Output PNG (default `RUN_DIR/QUANTITY_COMPONENT.png`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Image size in pixels, WIDTHxHEIGHT.

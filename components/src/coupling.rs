@@ -11,7 +11,7 @@ use crate::{Columns, PerParticle};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ForceMethod {
     /// Lagrangian force points on the sphere's surface with Lebedev-Laikov weights
-    /// (seed: F = J sum_i w_i t_i, J = 4 pi r^2, t = <sigma> n).
+    /// (seed: `F = J sum_i w_i t_i`, `J = 4 pi r^2`, `t = <sigma> n`).
     SurfacePoints,
     /// The volume integral of the fictitious boundary method, F = -int sigma . grad(alpha)
     /// over the cells cut by the particle (Wan & Turek 2006).

@@ -29,7 +29,7 @@
 //! * Transient Navier-Stokes ([`navier`]): [`NavierStokes::new`] (grid, [`NsConfig`],
 //!   mask of prescribed faces), fields `u`, `p`, `time`; [`NavierStokes::set_side_velocity`]
 //!   for walls, lids and inflow profiles; [`NavierStokes::step_with`] for time-dependent
-//!   Dirichlet data (called at each substep's time); [`NavierStokes::set_mask`] when
+//!   Dirichlet data (called at each substep's time); [`NavierStokes::move_mask`] when
 //!   markers move; [`NsConfig::viscous`] selects the [`ViscousForm`];
 //!   [`NavierStokes::step`] does one step of the selected [`TimeScheme`] (backward Euler,
 //!   Crank-Nicolson, fractional-step theta; backward Euler for `startup_steps`) by the

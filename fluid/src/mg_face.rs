@@ -8,7 +8,7 @@
 //!   elements of Turek 1999 ("Efficient solvers for incompressible flow problems",
 //!   multigrid chapter) written out for Q1~ with face means. On the reference coarse cell
 //!   `[-1,1]^3` (exact integration of the basis of [`crate::element`] over the sub-faces,
-//!   derivation in the comments of [`FaceTransfer::new`]):
+//!   derivation in the comments of `FaceTransfer::new`):
 //!   - fine face on the coarse face `a+` in the quadrant with signs `s_b, s_c` of the
 //!     tangential coordinates: `u_{a+} + s_b/4 (u_{b+} - u_{b-}) + s_c/4 (u_{c+} - u_{c-})`;
 //!   - fine face inside the coarse cell (on the plane `xi_a = 0`) in quadrant `s_b, s_c`:

@@ -157,7 +157,7 @@ impl PairTable for Materials {
 ///    half of each pair force, an exact negative), then its wall forces.
 ///
 /// Chunks with few pairs per particle run both passes in pair order instead of particle
-/// by particle (see [`SPARSE_PAIRS_PER_PARTICLE`]); the sums keep a fixed order.
+/// by particle (see `SPARSE_PAIRS_PER_PARTICLE`); the sums keep a fixed order.
 ///
 /// Each pair force is computed once; each particle sums in a fixed order (own row, then
 /// partner pairs in list order, then walls), so the result does not depend on the thread
