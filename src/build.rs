@@ -433,6 +433,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         let width = laws.layout.width;
         world.insert_resource(ContactHistory {
             width,
+            directed: laws.layout.spring,
             values: Vec::new(),
         });
         if world.contains_resource::<Walls>() {

@@ -49,12 +49,18 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
     let path = Path::new("contact-store.toml");
     let scene = scene::parse(SCENE, path, &[]).expect("scene");
     let mut sim = Simulation::new(scene, path, None).expect("world");
+    // a directed 3-vector (as a tangential spring) in values 0-2, an undirected value in 3
     sim.world.insert_resource(ContactHistory {
-        width: 2,
+        width: 4,
+        directed: Some(0),
         values: Vec::new(),
     });
     sim.start();
     let mut carried = 0usize;
+    // row owner of every pair (lower id, higher id) at the last step, and how many pairs
+    // kept their history through a rebuild that gave their row to the other particle
+    let mut owner = std::collections::HashMap::new();
+    let mut turned = 0usize;
     let mut last_builds = sim.world.resource::<VerletList>().builds;
     let mut rebuilds_seen = 0;
     for _ in 0..3000 {
@@ -77,19 +83,30 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
                 ids[list.owner[k] as usize],
                 ids[list.neighbours[k] as usize],
             );
-            // Values are kept for the pair oriented from the lower to the higher id.
+            // The directed values are kept oriented from the row owner to its partner:
+            // +key from the lower to the higher id, -key the other way.
             let want = key(a.min(b), a.max(b));
-            let slot = [history.index(k, 0), history.index(k, 1)];
-            if history.values[slot[0]] != 0.0 {
+            let directed = if a < b { want } else { -want };
+            let slot = [0, 1, 2, 3].map(|v| history.index(k, v));
+            if history.values[slot[3]] != 0.0 {
                 assert_eq!(
-                    history.values[slot[0]], want,
+                    history.values[slot[3]], want,
                     "history of pair ({a}, {b}) came from another pair"
                 );
-                assert_eq!(history.values[slot[1]], -want);
+                for &s in &slot[..3] {
+                    assert_eq!(
+                        history.values[s], directed,
+                        "directed value of pair ({a}, {b}), owner {a}"
+                    );
+                }
                 carried += rebuilt as usize;
+                turned += (owner.get(&(a.min(b), a.max(b))) == Some(&b)) as usize;
             }
-            history.values[slot[0]] = want;
-            history.values[slot[1]] = -want;
+            for &s in &slot[..3] {
+                history.values[s] = directed;
+            }
+            history.values[slot[3]] = want;
+            owner.insert((a.min(b), a.max(b)), a);
         }
     }
     assert!(
@@ -99,5 +116,9 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
     assert!(
         carried > 1000,
         "pairs listed before and after a rebuild keep their history ({carried})"
+    );
+    assert!(
+        turned > 10,
+        "pairs whose row owner changed at a rebuild keep their history, turned ({turned})"
     );
 }

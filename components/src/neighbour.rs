@@ -85,12 +85,16 @@ pub struct WallList {
 /// consecutive slots. Pairs are keyed
 /// by the particles' stable ids, so at every rebuild and re-sort the history of a pair that
 /// is still listed moves to its new place; a pair that left the list loses it. Values are
-/// kept for the pair oriented from the lower to the higher stable id, whichever particle
-/// owns the pair's row (a model flips directed values when `id[owner] > id[partner]`).
+/// kept for the pair oriented from the particle that owns the pair's row to its partner:
+/// when a rebuild gives the row to the other particle, the directed values (`directed`)
+/// are negated as they move, so the contact kernel never needs the ids.
 /// Present only when a model needs it.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct ContactHistory {
     pub width: usize,
+    /// Offset of the one directed 3-vector of a pair's values (the tangential spring),
+    /// if any.
+    pub directed: Option<usize>,
     pub values: Vec<f64>,
 }
 

@@ -169,15 +169,15 @@ struct Exerted<T: Real> {
     rolling: V3<T>,
 }
 
-/// The models of a contact (lanes of contacts). `hist` is updated in place; lanes out of
-/// contact get zero history. `flip` is -1 in lanes whose spring is stored for the pair
-/// oriented the other way (the tangential spring is directed; U_r is not).
+/// The models of a contact (lanes of contacts), seen from particle i (the row owner of a
+/// pair, or the particle of a wall contact): `hist` is updated in place, its tangential
+/// spring directed from i (the contact store keeps it so, see `ContactHistory`); lanes out
+/// of contact get zero history.
 #[inline(always)]
 fn interact<T: Real, D: NormalDamping>(
     c: &Coefficients<T>,
     layout: &HistoryLayout,
     hist: &mut History<T>,
-    flip: T,
     g: &Geometry<T>,
     dt: T,
 ) -> Exerted<T> {
@@ -222,7 +222,7 @@ fn interact<T: Real, D: NormalDamping>(
     let u_t = relative - g.n.scale(relative.dot(g.n));
     let mut tangential = V3::zero();
     if layout.spring.is_some() {
-        let mut spring = hist.spring.scale(flip);
+        let mut spring = hist.spring;
         let c_s = c.tangential_per_radius * a + c.tangential_constant;
         let mut sliding = hist.sliding;
         tangential = coulomb_tangential_force(
@@ -236,7 +236,7 @@ fn interact<T: Real, D: NormalDamping>(
             c.tangential_damping,
             dt,
         );
-        hist.spring = V3::select(touching, spring.scale(flip), V3::zero());
+        hist.spring = V3::select(touching, spring, V3::zero());
         hist.sliding = T::select(touching, sliding, zero);
     }
     let mut rolling = V3::zero();
@@ -616,9 +616,7 @@ impl Kernel<'_> {
                 &gathered
             }
         };
-        let flip =
-            f64x4::new([0, 1, 2, 3].map(|l| if p.id[is[l]] < p.id[js[l]] { 1.0 } else { -1.0 }));
-        let e = interact::<f64x4, D>(coefficients, self.layout, &mut h, flip, &geometry, dt);
+        let e = interact::<f64x4, D>(coefficients, self.layout, &mut h, &geometry, dt);
         h.store(self.layout, |v, lanes| {
             hist[v * LANES..(v + 1) * LANES].copy_from_slice(lanes.as_array_ref())
         });
@@ -759,14 +757,7 @@ impl Kernel<'_> {
         let refs = pick.map(|w| self.pair(w.material, p.material[w.particle]));
         let coefficients = Coefficients::gather(&refs, |l| l);
         let dt = f64x4::splat(self.dt);
-        let e = interact::<f64x4, D>(
-            &coefficients,
-            self.layout,
-            &mut h,
-            f64x4::ONE,
-            &geometry,
-            dt,
-        );
+        let e = interact::<f64x4, D>(&coefficients, self.layout, &mut h, &geometry, dt);
         let t = e.rolling.cross(nrm).scale(ri) - nrm.cross(e.tangential).scale(ri);
         let acts = e.touching.blend(f64x4::ONE, f64x4::ZERO);
         let values = [

@@ -377,8 +377,9 @@ struct OldList {
 }
 
 /// Move each pair's history from its old place to its new one (matched by the ids of both
-/// particles: in the old list the pair sat in the row of its lower old row index); new
-/// pairs start from zero.
+/// particles: in the old list the pair sat in the row of its lower old row index); the
+/// directed values are negated when the pair's row owner changes; new pairs start from
+/// zero.
 fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list: &VerletList) {
     let w = history.width;
     if w == 0 {
@@ -416,8 +417,13 @@ fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list:
                 let row = old.start[lo] as usize..old.start[lo + 1] as usize;
                 if let Ok(pos) = old.neighbours[row.clone()].binary_search(&hi) {
                     let src = row.start + pos;
+                    // the old owner (row lo) owns the new row too, or the partner does
+                    let turned = a as usize != lo;
                     for v in 0..w {
-                        out[store.index(k, v) - c * CHUNK * w] = old_values[store.index(src, v)];
+                        let value = old_values[store.index(src, v)];
+                        let directed = store.directed.is_some_and(|o| (o..o + 3).contains(&v));
+                        out[store.index(k, v) - c * CHUNK * w] =
+                            if turned && directed { -value } else { value };
                     }
                 }
             }
