@@ -454,7 +454,7 @@ impl NavierStokes {
         faces
             .iter()
             .map(|&(a, f)| {
-                let mut r = u.map(|uc| op.apply_at(&geometry, u, a, f, uc));
+                let mut r = op.apply_at(&geometry, u, a, f, u);
                 if let Some(kt) = &self.kt {
                     kt.add_at(nu, u, (lay.face(a, f), a, f), &mut r);
                 }

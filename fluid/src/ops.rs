@@ -343,21 +343,31 @@ impl FaceOperator {
         self.row_with(a, f, x, |c| conv.map(|conv| &conv.cells[c]))
     }
 
-    /// Row `f` of family `a` of `A x` with the convection of the velocity `w` (the row
-    /// of `self.with_convection(grid, w).apply(x, ..)`, operation for operation), from
-    /// the records of the face's two cells alone: no table over the grid. `self` carries
-    /// no convection of its own.
+    /// Row `f` of family `a` of `A x` for the three vectors `x`, with the convection of
+    /// the velocity `w` (the row of `self.with_convection(grid, w).apply(x[c], ..)`,
+    /// operation for operation), from the records of the face's two cells alone, each
+    /// built once: no table over the grid. `self` carries no convection of its own.
     pub(crate) fn apply_at(
         &self,
         geometry: &ConvectionGeometry,
         w: [&[f64]; 3],
         a: usize,
         f: [usize; 3],
-        x: &[f64],
-    ) -> f64 {
+        x: [&[f64]; 3],
+    ) -> [f64; 3] {
         debug_assert!(self.conv.is_none(), "apply_at brings its own convection");
-        let (diag, off) = self.row_with(a, f, x, |c| Some(geometry.cell_record(self.nu, w, c)));
-        diag * x[self.layout.face(a, f)] + off
+        let lay = &self.layout;
+        let cells = lay.face_cells(a, f).map(|c| c.map(|c| lay.cell(c)));
+        let records = cells.map(|c| c.map(|c| geometry.cell_record(self.nu, w, c)));
+        let record = |c: usize| {
+            let at = cells.iter().position(|&k| k == Some(c))?;
+            records[at].as_ref()
+        };
+        let fi = lay.face(a, f);
+        x.map(|xc| {
+            let (diag, off) = self.row_with(a, f, xc, record);
+            diag * xc[fi] + off
+        })
     }
 
     /// [`FaceOperator::row`] with the convection record of cell `c` from `conv(c)`
@@ -750,15 +760,14 @@ impl TransposeStiffness {
         y: &mut [f64; 3],
     ) {
         let lay = &self.layout;
-        let mut cells: Vec<usize> = lay
-            .face_cells(a, f)
-            .iter()
-            .flatten()
-            .map(|&c| lay.cell(c))
-            .collect();
-        cells.sort_unstable();
-        cells.dedup();
-        for c in cells {
+        // the face's cells by index, a cell on both sides (a one-cell periodic direction)
+        // once
+        let [m, p] = lay.face_cells(a, f).map(|c| c.map(|c| lay.cell(c)));
+        let (lo, hi) = match (m, p) {
+            (Some(m), Some(p)) if m != p => (Some(m.min(p)), Some(m.max(p))),
+            (m, p) => (m.or(p), None),
+        };
+        for c in [lo, hi].into_iter().flatten() {
             let faces = self.cell_faces(lay.cell_coords(c));
             let local = u.map(|uj| faces.map(|g| uj[g]));
             for (i, yi) in y.iter_mut().enumerate() {
