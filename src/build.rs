@@ -333,9 +333,8 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             .expect("validated material name") as u16
     };
     let flow = match &scene.fluid {
-        Some(f) => {
-            crate::fluid::fluid_grid(f, path)?.map(|grid| crate::fluid::fluid_flow(f, &grid))
-        }
+        Some(f) => crate::fluid::fluid_grid(f, path)?
+            .map(|grid| crate::fluid::fluid_flow(f, &grid, scene.simulation.gravity)),
         None => None,
     };
     let rho_f = scene.fluid.as_ref().map_or(0.0, |f| f.density);

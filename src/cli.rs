@@ -132,6 +132,14 @@ fn check(args: CheckArgs) -> ExitCode {
         match crate::fluid::fluid_grid(f, &args.scene) {
             Ok(Some(grid)) => {
                 out.push_str(&crate::fluid::check_report(f, &grid));
+                if let Some(flow) = sim.world.get_resource::<grainflow_components::FluidFlow>() {
+                    let _ = writeln!(
+                        out,
+                        "  runaway bound: a flow velocity above {} x {:.3e} stops the run (the scene's velocity scale: boundary speeds, sqrt(|f| L) of the body force, sqrt(|g| L), nu / L; or that multiple of the fastest particle surface)",
+                        grainflow_systems::fluid::RUNAWAY_FACTOR,
+                        flow.velocity_scale
+                    );
+                }
                 if let Some(c) = sim.world.get_resource::<grainflow_components::Coupling>() {
                     let (n_s, dt_d) = scene.subcycling.expect("coupled scene");
                     let _ = writeln!(

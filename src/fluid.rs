@@ -201,7 +201,7 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
 /// walls and lids their velocity, inflows their uniform velocity or the parabolic profile
 /// U prod_t 4 (x_t - a_t)(b_t - x_t)/(b_t - a_t)^2 over the side's two tangential
 /// directions t (peak U at the side's centre, zero on its edges).
-pub fn fluid_flow(f: &Fluid, grid: &Grid) -> FluidFlow {
+pub fn fluid_flow(f: &Fluid, grid: &Grid, gravity: [f64; 3]) -> FluidFlow {
     let dt = f.dt.expect("validated");
     let mut cfg = NsConfig::new(f.viscosity.expect("validated"), dt);
     cfg.body_force = f.body_force;
@@ -242,10 +242,17 @@ pub fn fluid_flow(f: &Fluid, grid: &Grid) -> FluidFlow {
             }
         }
     }
+    let norm = |v: [f64; 3]| v.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let diagonal = norm([0, 1, 2].map(|d| hi[d] - lo[d]));
+    let velocity_scale = boundary_speed(f)
+        .max((norm(f.body_force) * diagonal).sqrt())
+        .max((norm(gravity) * diagonal).sqrt())
+        .max(f.viscosity.expect("validated") / diagonal);
     FluidFlow {
         solver,
         dt,
         next_time: 0.0,
         stats: FluidStats::default(),
+        velocity_scale,
     }
 }

@@ -304,6 +304,13 @@ impl Layout {
         [i, r % d[1], r / d[1]]
     }
 
+    /// Family and face coordinates of the face with index `idx` in a face field.
+    #[inline]
+    pub fn face_of(&self, idx: usize) -> (usize, [usize; 3]) {
+        let a = (0..3).rfind(|&a| self.off[a] <= idx).expect("face index");
+        (a, self.face_coords(a, idx - self.off[a]))
+    }
+
     /// Face coordinates of the upper face of family `a` of cell `c` (periodic wrap).
     #[inline]
     pub fn upper(&self, a: usize, c: [usize; 3]) -> [usize; 3] {

@@ -196,8 +196,7 @@ fn blend(
         if mask[idx] {
             continue;
         }
-        let a = (0..3).rfind(|&a| lay.off[a] <= idx).expect("face index");
-        let f = lay.face_coords(a, idx - lay.off[a]);
+        let (a, f) = lay.face_of(idx);
         let x = grid.face_centre(a, f);
         let i = i as usize;
         let v = rigid_velocity(particles, i, x);

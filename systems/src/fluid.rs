@@ -3,13 +3,27 @@
 //! simulated time reaches the next fluid time, so that the DEM steps between two fluid
 //! steps (the seed's subcycling, dt_F = n_s dt_D) see one flow field.
 use bevy_ecs::prelude::*;
-use grainflow_components::{FluidFlow, SimClock};
+use grainflow_components::{FluidFlow, Particles, RunHealth, SimClock};
+use grainflow_fluid::NavierStokes;
+use rayon::prelude::*;
+
+/// A flow faster than this multiple of the scene's velocity scale
+/// ([`FluidFlow::velocity_scale`], or of the fastest particle) has run away: the flows of
+/// the seed's cases stay within a few times it.
+pub const RUNAWAY_FACTOR: f64 = 100.0;
 
 pub fn has_fluid(w: &World) -> bool {
     w.contains_resource::<FluidFlow>()
 }
 
-pub fn multigrid_fluid(clock: Res<SimClock>, mut flow: ResMut<FluidFlow>) {
+/// One flow step when it is due; a flow that is no longer physical
+/// ([`flow_instability`]) stops the run, naming the step and the place.
+pub fn multigrid_fluid(
+    clock: Res<SimClock>,
+    mut flow: ResMut<FluidFlow>,
+    particles: Option<Res<Particles>>,
+    mut health: ResMut<RunHealth>,
+) {
     if !flow.is_due(clock.time, clock.dt) {
         return;
     }
@@ -17,6 +31,97 @@ pub fn multigrid_fluid(clock: Res<SimClock>, mut flow: ResMut<FluidFlow>) {
     let report = flow.solver.step();
     flow.stats.add(&report);
     flow.next_time += flow.dt;
+    if health.failure.is_some() {
+        return;
+    }
+    // the fastest surface point of any particle bounds |v| + |w| r
+    let fastest_particle = particles.map_or(0.0, |p| {
+        let [vx, vy, vz] = &p.velocity;
+        let [wx, wy, wz] = &p.angular_velocity;
+        (0..p.len())
+            .map(|i| {
+                (vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i]).sqrt()
+                    + (wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i]).sqrt() * p.radius[i]
+            })
+            .fold(0.0, f64::max)
+    });
+    let scale = flow.velocity_scale.max(fastest_particle);
+    if let Some(what) = flow_instability(&flow.solver, scale) {
+        health.failure = Some(format!(
+            "unstable at step {} (t = {:.6e} s), fluid step {}: {what}",
+            clock.step, clock.time, flow.stats.steps
+        ));
+    }
+}
+
+/// Why the flow is no longer physical, if it is not: a non-finite velocity or pressure,
+/// or a velocity component above [`RUNAWAY_FACTOR`] times `scale`. Names the face (or
+/// cell) by its centre; of several, the one with the largest speed, then the lowest index.
+pub fn flow_instability(ns: &NavierStokes, scale: f64) -> Option<String> {
+    let grid = ns.grid();
+    let lay = grid.layout();
+    // (|u_d| with non-finite as infinite, face index, component)
+    let fastest = (0..3)
+        .map(|d| {
+            ns.u[d]
+                .par_iter()
+                .enumerate()
+                .map(|(k, &v)| {
+                    (
+                        if v.is_finite() {
+                            v.abs()
+                        } else {
+                            f64::INFINITY
+                        },
+                        k,
+                    )
+                })
+                .reduce(
+                    || (0.0, usize::MAX),
+                    |a, b| {
+                        if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+                            b
+                        } else {
+                            a
+                        }
+                    },
+                )
+        })
+        .enumerate()
+        .fold((0.0, usize::MAX, 0), |best, (d, (v, k))| {
+            if v > best.0 {
+                (v, k, d)
+            } else {
+                best
+            }
+        });
+    let limit = RUNAWAY_FACTOR * scale;
+    if fastest.0 > limit && fastest.1 != usize::MAX {
+        let (_, k, d) = fastest;
+        let (a, f) = lay.face_of(k);
+        let x = grid.face_centre(a, f);
+        let value = ns.u[d][k];
+        let what = if value.is_finite() {
+            format!(
+                "runaway flow: velocity component {} = {value:.3e} exceeds {RUNAWAY_FACTOR} \
+                 times the scene's velocity scale {scale:.3e}",
+                ["x", "y", "z"][d]
+            )
+        } else {
+            format!("non-finite velocity component {}", ["x", "y", "z"][d])
+        };
+        return Some(format!(
+            "{what} at the face centred at ({:.4e}, {:.4e}, {:.4e}); \
+             reduce fluid.dt, or raise fluid.upwind towards 1",
+            x[0], x[1], x[2]
+        ));
+    }
+    let bad_cell = ns.p.par_iter().position_first(|v| !v.is_finite())?;
+    let x = grid.cell_centre(lay.cell_coords(bad_cell));
+    Some(format!(
+        "non-finite pressure in the cell centred at ({:.4e}, {:.4e}, {:.4e})",
+        x[0], x[1], x[2]
+    ))
 }
 
 /// DEM subcycles per fluid step (seed, "Coupling of FEM-DEM on the time level", after
