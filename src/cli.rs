@@ -299,17 +299,6 @@ fn run(args: RunArgs) -> ExitCode {
             eprintln!("error: cannot write {}: {e}", summary_path.display());
             return ExitCode::from(1);
         }
-        if let Some(log) = sim
-            .world
-            .get_resource::<crate::observables::CouplingLog>()
-            .filter(|log| !log.time.is_empty())
-        {
-            let path = out_dir.join("coupling.csv");
-            if let Err(e) = std::fs::write(&path, log.to_csv()) {
-                eprintln!("error: cannot write {}: {e}", path.display());
-                return ExitCode::from(1);
-            }
-        }
         let mut out = String::new();
         let rate = report.particle_steps / report.wall_seconds.max(1e-12);
         let sim_time = sim.world.resource::<grainflow_components::SimClock>().time;

@@ -16,10 +16,14 @@
 //!   `tumble_time` (first time after the kiss at which the trailing sphere passes the
 //!   leading one along gravity).
 use bevy_ecs::prelude::*;
-use grainflow_components::{Clamped, Coupling, FluidFlow, HydroForces, Particles, SimClock};
+use grainflow_components::{
+    Clamped, Coupling, FluidFlow, HydroForces, Particles, RunHealth, SimClock,
+};
 use grainflow_fluid::sample::velocity_at;
 use grainflow_systems::hydrodynamic::{surface_point_force, volume_integral_force};
 use serde_json::json;
+use std::io::Write;
+use std::path::PathBuf;
 
 use crate::scene::{FluidBoundary, Scene};
 
@@ -31,7 +35,15 @@ pub struct CouplingLog {
     pub state: Vec<Vec<[[f64; 3]; 3]>>,
     pub ids: Vec<u32>,
     recorded_steps: u64,
+    /// `coupling.csv` of the run directory, if any: every record is appended to it as it
+    /// is taken, so a run that stops early (a failure, a kill) keeps its history.
+    pub csv: Option<PathBuf>,
+    /// Why appending to `csv` failed (the run stops).
+    pub error: Option<String>,
 }
+
+/// Header line of `coupling.csv` ([`CouplingLog::record_csv`]).
+pub const COUPLING_CSV_HEADER: &str = "time,id,x,y,z,vx,vy,vz,fx,fy,fz\n";
 
 /// Most particles a log follows (the seed's single- and two-sphere cases; a larger scene
 /// keeps no history).
@@ -42,9 +54,14 @@ pub fn record_coupling(
     clock: Res<SimClock>,
     particles: Res<Particles>,
     hydro: Res<HydroForces>,
+    health: Res<RunHealth>,
     mut log: ResMut<CouplingLog>,
 ) {
-    if hydro.sampled_steps == log.recorded_steps || particles.len() > LOGGED_PARTICLES {
+    // a step that failed is not recorded: the history ends at the last good fluid step
+    if hydro.sampled_steps == log.recorded_steps
+        || particles.len() > LOGGED_PARTICLES
+        || health.failure.is_some()
+    {
         return;
     }
     log.recorded_steps = hydro.sampled_steps;
@@ -64,6 +81,16 @@ pub fn record_coupling(
         .collect();
     log.time.push(clock.time);
     log.state.push(state);
+    if let (Some(path), None) = (&log.csv, &log.error) {
+        let lines = log.record_csv(log.time.len() - 1);
+        let appended = std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .and_then(|mut f| f.write_all(lines.as_bytes()));
+        if let Err(e) = appended {
+            log.error = Some(format!("cannot append to {}: {e}", path.display()));
+        }
+    }
 }
 
 /// The shortest response time of a free particle to the hydrodynamic force, the Stokes
@@ -89,19 +116,28 @@ pub fn shortest_response_time(
 }
 
 impl CouplingLog {
-    /// The history as CSV (`coupling.csv` of a run directory): one line per fluid step and
-    /// particle, `time,id,x,y,z,vx,vy,vz,fx,fy,fz` (the hydrodynamic force), SI or scene
-    /// units as the scene's.
-    pub fn to_csv(&self) -> String {
-        let mut out = String::from("time,id,x,y,z,vx,vy,vz,fx,fy,fz\n");
-        for (t, rows) in self.time.iter().zip(&self.state) {
-            for (id, row) in self.ids.iter().zip(rows) {
-                out.push_str(&format!("{t:e},{id}"));
-                for v in row.iter().flatten() {
-                    out.push_str(&format!(",{v:e}"));
-                }
-                out.push('\n');
+    /// A log that appends its records to `path` (`coupling.csv` of a run directory),
+    /// created now with its header ([`COUPLING_CSV_HEADER`]).
+    pub fn writing_to(path: PathBuf) -> Result<Self, String> {
+        std::fs::write(&path, COUPLING_CSV_HEADER)
+            .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        Ok(Self {
+            csv: Some(path),
+            ..Self::default()
+        })
+    }
+
+    /// Record `k` as lines of `coupling.csv`: one per particle,
+    /// `time,id,x,y,z,vx,vy,vz,fx,fy,fz` (the hydrodynamic force), in the scene's units.
+    pub fn record_csv(&self, k: usize) -> String {
+        let mut out = String::new();
+        let t = self.time[k];
+        for (id, row) in self.ids.iter().zip(&self.state[k]) {
+            out.push_str(&format!("{t:e},{id}"));
+            for v in row.iter().flatten() {
+                out.push_str(&format!(",{v:e}"));
             }
+            out.push('\n');
         }
         out
     }

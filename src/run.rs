@@ -93,7 +93,17 @@ impl Simulation {
             world.insert_resource(out);
         }
         if world.contains_resource::<grainflow_components::Coupling>() {
-            world.insert_resource(CouplingLog::default());
+            let log = match output {
+                Some((dir, _)) => {
+                    CouplingLog::writing_to(dir.join("coupling.csv")).map_err(|m| SceneError {
+                        file: path.to_path_buf(),
+                        field: "--out".into(),
+                        message: m,
+                    })?
+                }
+                None => CouplingLog::default(),
+            };
+            world.insert_resource(log);
         }
         let (step_schedule, step_systems) = build_schedule(&world, Phase::Step, OUTPUT_ENTRIES);
         let (startup_schedule, _) = build_schedule(&world, Phase::Startup, &[]);
@@ -137,11 +147,19 @@ impl Simulation {
 
     pub fn failure(&self) -> Option<String> {
         let health = self.world.resource::<RunHealth>();
-        health.failure.clone().or_else(|| {
-            self.world
-                .get_resource::<ParticleOutput>()
-                .and_then(|o| o.error.clone())
-        })
+        health
+            .failure
+            .clone()
+            .or_else(|| {
+                self.world
+                    .get_resource::<ParticleOutput>()
+                    .and_then(|o| o.error.clone())
+            })
+            .or_else(|| {
+                self.world
+                    .get_resource::<CouplingLog>()
+                    .and_then(|l| l.error.clone())
+            })
     }
 
     /// Run `steps` steps (stopping early on failure), showing progress on a terminal

@@ -1,8 +1,11 @@
 //! Output files a user opens: particles.h5 (one group per frame, rows by stable id, the
 //! `time` attribute), the particles.xdmf sidecar whose every data path exists in the HDF5
 //! file, summary.json, the Chrome trace with a span per system, and particles read from a
-//! LAMMPS `atom_style sphere` data file.
+//! LAMMPS `atom_style sphere` data file; coupling.csv written fluid step by fluid step.
 use std::path::Path;
+
+use grainflow::run::Simulation;
+use grainflow_components::FluidFlow;
 
 mod common;
 
@@ -153,4 +156,52 @@ fn lammps_data_errors_name_the_line() {
     );
     let parsed = grainflow::lammps::read_data(Path::new("/nonexistent.data"));
     assert!(parsed.is_err());
+}
+
+/// `coupling.csv` grows by one line per particle at every fluid step while the run goes
+/// on (a run that is killed or fails keeps its history), in the documented columns, and
+/// ends with the run: here the seed's drag case at level 1, 0.25 s in fluid steps of 0.05.
+#[test]
+fn coupling_csv_is_written_as_the_run_goes() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/drag-sphere.toml");
+    let text = std::fs::read_to_string(&case).expect("drag case");
+    let overrides = ["fluid.level=1".to_string()];
+    let scene = grainflow::scene::parse(&text, &case, &overrides).expect("drag case parses");
+    let mut sim = Simulation::new(scene, &case, Some((dir.path(), 1.0))).expect("drag case builds");
+    let csv = dir.path().join("coupling.csv");
+    let lines = || {
+        std::fs::read_to_string(&csv)
+            .expect("coupling.csv")
+            .lines()
+            .count()
+    };
+    assert_eq!(lines(), 1, "the header, before any step");
+    let fluid_steps = |sim: &Simulation| sim.world.resource::<FluidFlow>().stats.steps;
+    while fluid_steps(&sim) < 3 {
+        sim.step();
+    }
+    // the step that ran the third fluid step also sampled and recorded it
+    assert_eq!(
+        lines(),
+        1 + 3,
+        "one line per fluid step of the one sphere, so far"
+    );
+    let text = std::fs::read_to_string(&csv).expect("coupling.csv");
+    let mut rows = text.lines();
+    assert_eq!(rows.next(), Some("time,id,x,y,z,vx,vy,vz,fx,fy,fz"));
+    for row in rows {
+        let values: Vec<f64> = row.split(',').map(|v| v.parse().expect("number")).collect();
+        assert_eq!(values.len(), 11, "{row}");
+        assert_eq!(
+            &values[2..5],
+            &[1.0, 1.0, 1.0],
+            "the fixed sphere's centre: {row}"
+        );
+    }
+    let steps = (0.25 / sim.scene.simulation.dt).round() as u64;
+    let now = sim.world.resource::<grainflow_components::SimClock>().step;
+    assert!(sim.run(steps - now).failure.is_none());
+    assert_eq!(lines() as u64, 1 + fluid_steps(&sim));
+    assert_eq!(fluid_steps(&sim), 5);
 }
