@@ -15,8 +15,9 @@ pub struct FluidFlow {
     pub stats: FluidStats,
     /// Velocity scale of the scene (its units): the largest of the boundary speeds,
     /// sqrt(|f| L) of the body force f, sqrt(|g| L) of gravity and the viscous speed
-    /// nu / L (L the domain's diagonal). A flow faster than `RUNAWAY_FACTOR` times it (or than that multiple of
-    /// the fastest particle) has run away (`grainflow_systems::fluid`).
+    /// nu / L (L the domain's diagonal). A flow faster than `RUNAWAY_FACTOR` times it
+    /// (or than that multiple of the fastest particle) has run away
+    /// (`grainflow_systems::fluid`).
     pub velocity_scale: f64,
 }
 

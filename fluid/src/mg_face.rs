@@ -419,8 +419,6 @@ fn masked_apply(l: &FaceLevel, x: &[f64], y: &mut [f64]) {
     }
 }
 
-/// BiCGStab on the free faces of the coarsest level (1e-10 relative, at most
-/// [`COARSE_BICGSTAB_STEPS`] steps; serial: the coarsest level is small).
 /// Most BiCGStab steps of a coarsest-level solve. The drag case's coarsest level (16,560
 /// faces) needs at most 65 at Re = 50 and 150; a coarse problem that BiCGStab cannot
 /// bring to 1e-10 (a momentum operator too central for its grid: upwind scale 0.05 at
@@ -428,6 +426,8 @@ fn masked_apply(l: &FaceLevel, x: &[f64], y: &mut [f64]) {
 /// bound. The multigrid cycle only needs an approximate coarse correction.
 const COARSE_BICGSTAB_STEPS: usize = 1000;
 
+/// BiCGStab on the free faces of the coarsest level (1e-10 relative, at most
+/// [`COARSE_BICGSTAB_STEPS`] steps; serial: the coarsest level is small).
 fn coarse_bicgstab(l: &mut FaceLevel) {
     let n = l.x.len();
     l.op.residual(&l.x, &l.b, &l.mask, &mut l.r);

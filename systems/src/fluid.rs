@@ -96,7 +96,7 @@ pub fn flow_instability(ns: &NavierStokes, scale: f64) -> Option<String> {
             }
         });
     let limit = RUNAWAY_FACTOR * scale;
-    if fastest.0 > limit && fastest.1 != usize::MAX {
+    if fastest.0 > limit {
         let (_, k, d) = fastest;
         let (a, f) = lay.face_of(k);
         let x = grid.face_centre(a, f);
