@@ -136,6 +136,12 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
         f.upwind,
         f.dt.unwrap_or_default()
     );
+    if let Some(s) = f.solve_upwind {
+        let _ = writeln!(
+            out,
+            "  deferred upwind correction: the momentum multigrid solves with upwind scale {s}"
+        );
+    }
     for side in f.boundaries.sides().iter().flatten() {
         let what = match side.1 {
             FluidBoundary::Wall { velocity } if velocity.iter().all(|v| *v == 0.0) => {
@@ -211,6 +217,7 @@ pub fn fluid_flow(f: &Fluid, grid: &Grid, gravity: [f64; 3]) -> FluidFlow {
         FluidScheme::BackwardEuler => TimeScheme::BackwardEuler,
     };
     cfg.upwind = f.upwind;
+    cfg.solve_upwind = f.solve_upwind;
     cfg.viscous = match f.viscous {
         FluidViscous::Laplacian => ViscousForm::Laplacian,
         FluidViscous::Deformation => ViscousForm::Deformation,

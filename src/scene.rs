@@ -145,6 +145,10 @@ pub struct Fluid {
     /// diffusion at high cell Reynolds numbers).
     #[serde(default = "default_upwind")]
     pub upwind: f64,
+    /// Upwind scale of the operator the momentum multigrid solves (deferred correction:
+    /// the steady states are those of `upwind`); default: `upwind` itself.
+    #[serde(default)]
+    pub solve_upwind: Option<f64>,
     /// Constant body force per unit mass on the fluid, m/s^2 (drives periodic flows;
     /// gravity is not applied to the fluid: its hydrostatic part is the buoyancy).
     #[serde(default)]
@@ -764,6 +768,9 @@ fn validate_fluid_grid(f: &Fluid) -> Result<(), Invalid> {
     let dt = f.dt.ok_or_else(|| need("dt"))?;
     positive("fluid.dt".into(), dt)?;
     positive("fluid.upwind".into(), f.upwind)?;
+    if let Some(s) = f.solve_upwind {
+        positive("fluid.solve_upwind".into(), s)?;
+    }
     let min = f.min.ok_or_else(|| need("min"))?;
     let max = f.max.ok_or_else(|| need("max"))?;
     finite3("fluid.min".into(), min)?;

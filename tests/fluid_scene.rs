@@ -116,6 +116,11 @@ fn bad_fluid_input_exits_2_naming_the_field() {
             "fluid.upwind",
         ),
         (
+            "negative_solve_upwind.toml",
+            edit("scheme = ", "solve_upwind = -0.1\nscheme = "),
+            "fluid.solve_upwind",
+        ),
+        (
             "nan_body_force.toml",
             edit("scheme = ", "body_force = [1.0, nan, 0.0]\nscheme = "),
             "fluid.body_force",
@@ -184,8 +189,9 @@ fn fluid_run_reports_its_solver() {
 }
 
 /// `fluid.viscous` selects the viscous term ("laplacian", the default, or "deformation",
-/// the seed's stress tensor) and `fluid.upwind` the upwind scale; `grainflow check` names
-/// them and reports the CFL number with
+/// the seed's stress tensor), `fluid.upwind` the upwind scale and `fluid.solve_upwind`
+/// that of the solved operator (deferred correction); `grainflow check` names them and
+/// reports the CFL number with
 /// its limit for the scheme and the viscous number; the CFL limit is enforced per scheme
 /// (dt = 1.0 on level 2 of the channel is U dt / h = 5: refused for Crank-Nicolson, limit
 /// 2, accepted for fractional-step theta, limit 8); a deformation-form run of the channel
@@ -206,6 +212,22 @@ fn viscous_form_and_time_step_limits() {
     assert!(stdout.contains("upwind scale 0.1,"), "{stdout}");
     assert!(stdout.contains("CFL U dt/h = 0.005"), "{stdout}");
     assert!(stdout.contains("limit 8 for FractionalStep"), "{stdout}");
+    assert!(!stdout.contains("deferred upwind correction"), "{stdout}");
+    let (code, stdout, stderr) = run_cli(&[
+        "check",
+        s,
+        "--set",
+        "fluid.upwind=0.03",
+        "--set",
+        "fluid.solve_upwind=0.1",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains(
+            "deferred upwind correction: the momentum multigrid solves with upwind scale 0.1"
+        ),
+        "{stdout}"
+    );
     let (code, stdout, stderr) = run_cli(&["check", s, "--set", "fluid.viscous=deformation"]);
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("viscous term Deformation"), "{stdout}");

@@ -370,6 +370,42 @@ impl FaceOperator {
         })
     }
 
+    /// The deferred upwind correction `y = (N_s(w) - N(w)) x` at every face (three
+    /// components), `N_s` and `N` the convections of `w` with the Samarskij weights of the
+    /// upwind viscosities `nu_solve` and `nu_target` (see [`Convection`]): the two differ
+    /// only in the added diffusion `e_ij (x_i - x_j)`. A step whose implicit operator
+    /// carries `N_s` and whose right-hand side carries `y` of the old velocity has the
+    /// steady states of `N` (deferred correction, Khosla & Rubin 1974, Comput. Fluids
+    /// 2:207; Ferziger & Peric 2002, "Computational methods for fluid dynamics",
+    /// sec. 4.4.6). Each face from its two cells alone ([`FaceOperator::apply_at`]):
+    /// no table over the grid. `self` is the lumped operator without convection.
+    pub(crate) fn upwind_correction(
+        &self,
+        geometry: &ConvectionGeometry,
+        nu_solve: f64,
+        nu_target: f64,
+        w: [&[f64]; 3],
+        x: [&[f64]; 3],
+    ) -> Vec<[f64; 3]> {
+        let lay = &self.layout;
+        let (solve, target) = (
+            self.clone().with_upwind_viscosity(nu_solve),
+            self.clone().with_upwind_viscosity(nu_target),
+        );
+        (0..lay.num_faces())
+            .into_par_iter()
+            .with_min_len(MIN_TASK / 24)
+            .map(|i| {
+                let (a, f) = lay.face_of(i);
+                let (s, t) = (
+                    solve.apply_at(geometry, w, a, f, x),
+                    target.apply_at(geometry, w, a, f, x),
+                );
+                [s[0] - t[0], s[1] - t[1], s[2] - t[2]]
+            })
+            .collect()
+    }
+
     /// [`FaceOperator::row`] with the convection record of cell `c` from `conv(c)`
     /// (`None`: no convection).
     #[inline]
