@@ -4,6 +4,7 @@ use std::path::Path;
 
 use bevy_ecs::prelude::World;
 use grainflow_components::*;
+use grainflow_systems::fictitious::outside_the_fluid;
 use grainflow_systems::inflow::next_f64;
 use grainflow_systems::walls::{wall_contains, wall_distance};
 
@@ -361,6 +362,15 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
                     format!("particle {} at {p:?} is outside wall `{}`: expected every particle inside all walls", particles.id[i], w.name),
                 ));
             }
+        }
+    }
+    // Every particle of a coupled scene must start where the fluid grid represents it.
+    if let Some(flow) = &flow {
+        if let Some((i, what)) = outside_the_fluid(flow.solver.grid(), &particles) {
+            return Err(err(
+                source_field(scene, i),
+                format!("{what}: expected every particle inside the fluid box"),
+            ));
         }
     }
     let r_max = largest_radius(scene, &particles);

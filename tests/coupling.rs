@@ -471,3 +471,74 @@ fn drag_coefficient_converges_with_the_grid_level() {
         "C_D {cd:?}: |C3 - C2| = {d23:.4}, |C4 - C3| = {d34:.4}"
     );
 }
+
+/// Particles the fluid grid cannot represent are refused, never silently uncoupled:
+/// * at the start, a sphere whose centre lies outside the fluid box, or whose marked
+///   cells (sphere plus half a cell diagonal) reach across a periodic side (the markers
+///   do not wrap), is a scene error naming `spheres[0]` and the side;
+/// * a sphere that leaves the box during the run (here through the outflow side at
+///   x = 1, moving at 2 in a flow of 1) stops the run before the next fluid step, naming
+///   the particle and the side; it crossed at t = 0.325, so the run stops at the fluid
+///   step after it (steps of 0.01);
+/// * a sphere reaching past a non-periodic side with its centre inside is accepted (the
+///   side's condition holds on its faces).
+#[test]
+fn particles_outside_the_fluid_grid_are_refused() {
+    let boundaries = format!(
+        "xmin = {{ type = \"inflow\", velocity = [1.0, 0.0, 0.0] }}\nxmax = {{ type = \"outflow\" }}\n{PERIODIC_YZ}"
+    );
+    let build = |sphere: &str| {
+        let text = scene(4, 2, 0.1, 0.01, &boundaries, sphere);
+        let path = std::path::Path::new("outside.toml");
+        let scene = grainflow::scene::parse(&text, path, &[]).expect("parses");
+        grainflow::run::Simulation::new(scene, path, None).map(|_| ())
+    };
+    for (sphere, side, what) in [
+        (
+            "radius = 0.1\nposition = [1.05, 0.5, 0.5]",
+            "side xmax",
+            "left the fluid box",
+        ),
+        (
+            "radius = 0.1\nposition = [0.5, 0.15, 0.5]",
+            "side ymin",
+            "periodic side",
+        ),
+        (
+            "radius = 0.1\nposition = [0.5, 0.5, 0.85]",
+            "side zmax",
+            "periodic side",
+        ),
+    ] {
+        let err = build(sphere).expect_err(sphere).to_string();
+        println!("{err}");
+        assert!(
+            err.contains("spheres[0]") && err.contains(side) && err.contains(what),
+            "{err}"
+        );
+    }
+    // centre inside, sphere past the outflow side: accepted
+    build("radius = 0.1\nposition = [0.95, 0.5, 0.5]").expect("centre inside the box");
+    // leaving during the run
+    let text = scene(
+        4,
+        2,
+        0.1,
+        0.01,
+        &boundaries,
+        "radius = 0.1\nposition = [0.35, 0.5, 0.5]\nvelocity = [2.0, 0.0, 0.0]\nfixed = true",
+    );
+    let mut sim = simulation(&text, "leaving.toml");
+    while sim.failure().is_none() && sim.world.resource::<FluidFlow>().stats.steps < 100 {
+        sim.step();
+    }
+    let failure = sim.failure().expect("the run stops").to_string();
+    println!("{failure}");
+    assert!(
+        failure.contains("particle 0")
+            && failure.contains("side xmax")
+            && failure.contains("left the fluid box")
+            && failure.contains("before fluid step 34"),
+        "{failure}"
+    );
+}

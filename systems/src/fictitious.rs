@@ -25,10 +25,17 @@
 //!   at 0.05 (1.24 and 1.39 without its momentum booked), against 1.49 at both dt_F
 //!   without blending (Schiller-Naumann 1.54): the default is no blending.
 //!
-//! Known limits: the marking does not wrap across periodic sides; a face inside two
-//! particles (overlapping spheres) takes the velocity of the later particle.
+//! A particle the grid cannot represent stops the run ([`outside_the_fluid`]): one
+//! whose centre has left the fluid box (it would feel no fluid), or one whose marked cells
+//! would reach across a periodic side (the marking does not wrap). A sphere may reach past
+//! a wall, inflow or outflow side: the side's condition holds on its faces.
+//!
+//! Known limit: a face inside two particles (overlapping spheres) takes the velocity of
+//! the later particle.
 use bevy_ecs::prelude::*;
-use grainflow_components::{CellMarkers, Coupling, FluidFlow, HydroForces, Particles, SimClock};
+use grainflow_components::{
+    CellMarkers, Coupling, FluidFlow, HydroForces, Particles, RunHealth, SimClock,
+};
 use grainflow_fluid::Grid;
 
 use crate::hydrodynamic::add_force;
@@ -74,6 +81,7 @@ pub fn velocity_blending(
     mut markers: ResMut<CellMarkers>,
     mut flow: ResMut<FluidFlow>,
     mut hydro: ResMut<HydroForces>,
+    mut health: ResMut<RunHealth>,
 ) {
     if !flow.is_due(clock.time, clock.dt) {
         return;
@@ -83,6 +91,16 @@ pub fn velocity_blending(
     let lay = grid.layout();
     let (h, lower, n) = (grid.h(), grid.lower, lay.n);
     let half_diagonal = 0.5 * (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+    if health.failure.is_none() {
+        if let Some((_, what)) = outside_the_fluid(&grid, &particles) {
+            health.failure = Some(format!(
+                "at step {} (t = {:.6e} s), before fluid step {}: {what}",
+                clock.step,
+                clock.time,
+                flow.stats.steps + 1
+            ));
+        }
+    }
     let CellMarkers {
         marker,
         marked,
@@ -173,6 +191,45 @@ pub fn velocity_blending(
         );
     }
     flow.solver.u = u;
+}
+
+/// The first particle (in row order) that the grid cannot represent, if any: its centre
+/// outside the fluid box, or its marked cells (the sphere plus half a cell diagonal)
+/// reaching across a periodic side: its row, and a message naming it by its id, its
+/// centre and radius, and the side.
+pub fn outside_the_fluid(grid: &Grid, particles: &Particles) -> Option<(usize, String)> {
+    let h = grid.h();
+    let half_diagonal = 0.5 * (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+    (0..particles.len()).find_map(|i| {
+        let r = particles.radius[i];
+        let xp = [0, 1, 2].map(|d| particles.position[d][i]);
+        let side = (0..3).find_map(|d| {
+            let periodic = grid.periodic(d);
+            let reach = if periodic { r + half_diagonal } else { 0.0 };
+            let axis = ["x", "y", "z"][d];
+            if xp[d] - reach < grid.lower[d] {
+                Some((axis, "min", periodic))
+            } else if xp[d] + reach > grid.upper[d] {
+                Some((axis, "max", periodic))
+            } else {
+                None
+            }
+        })?;
+        let (axis, end, periodic) = side;
+        let what = if periodic {
+            "its marked cells reach across the periodic side (the cell markers do not wrap)"
+        } else {
+            "its centre has left the fluid box (it would feel no fluid)"
+        };
+        Some((
+            i,
+            format!(
+                "particle {} (centre ({:.4e}, {:.4e}, {:.4e}), radius {:.4e}) at the fluid \
+                 side {axis}{end}: {what}",
+                particles.id[i], xp[0], xp[1], xp[2], r
+            ),
+        ))
+    })
 }
 
 /// The smooth transition on the `layer` faces (face, particle row) that are not masked,
