@@ -450,8 +450,9 @@ fn steady_drag_does_not_depend_on_the_fluid_time_step() {
 /// checked to 0.5 % (level 4 still drifts by 0.3 %), well below the changes compared.
 /// Measured: 1.312, 1.794, 1.726 (differences 0.48 and 0.068). The narrow channel
 /// (sphere diameter a quarter of the width) raises C_D by ~9 % over the seed's 2 x 2
-/// channel: there, level 4 gives 1.581, +2.8 % from Schiller-Naumann's 1.538 (a 16 min
-/// run, so not a test; figures in docs/coupling.md).
+/// channel: there, level 4 gives 1.581 with this upwind scale, +2.8 % from
+/// Schiller-Naumann's 1.538, and 1.572 (+2.2 %) with the case's default (0.03 solved
+/// with 0.1) (15-16 min runs, so not tests; figures in docs/coupling.md).
 #[test]
 fn drag_coefficient_converges_with_the_grid_level() {
     let cd: Vec<f64> = (2..=4)
