@@ -368,7 +368,8 @@ fn deferred_upwind_correction_solves_a_less_diffusive_scale() {
             .chain(more.iter().map(|s| s.to_string()))
             .collect()
     };
-    let direct = with(&["fluid.upwind=0.03"]);
+    // (the case file itself solves with 0.1)
+    let direct = with(&["fluid.upwind=0.03", "fluid.solve_upwind=0.03"]);
     let direct: Vec<&str> = direct.iter().map(String::as_str).collect();
     let (mut sim, _) = reduced_drag_simulation(2, 0.05, &direct);
     while sim.failure().is_none() && sim.world.resource::<FluidFlow>().stats.steps < 10 {
@@ -381,7 +382,7 @@ fn deferred_upwind_correction_solves_a_less_diffusive_scale() {
     let scale = (2.0f64 / 6.0).powi(2);
     let cd: Vec<(f64, f64)> = [
         &["fluid.upwind=0.03", "fluid.solve_upwind=0.1"][..],
-        &["fluid.upwind=0.1"][..],
+        &["fluid.upwind=0.1", "fluid.solve_upwind=0.1"][..],
     ]
     .iter()
     .map(|more| {
