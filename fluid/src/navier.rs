@@ -272,6 +272,8 @@ struct Scratch {
     divergence: Vec<f64>,
     /// Pressure increment per cell.
     q: Vec<f64>,
+    /// Deferred upwind correction per face (three components).
+    correction: Vec<[f64; 3]>,
 }
 
 /// Transient incompressible Navier-Stokes solver on one grid level.
@@ -567,16 +569,17 @@ impl NavierStokes {
         // the right-hand side gains w_i (N_solve(u*) - N(u*)) u_old
         let solve_upwind = self.cfg.solve_upwind.unwrap_or(self.cfg.upwind);
         if solve_upwind != self.cfg.upwind {
-            let correction = FaceOperator::lumped(&g, 0.0, nu).upwind_correction(
+            FaceOperator::lumped(&g, 0.0, nu).upwind_correction(
                 &ConvectionGeometry::of(&g),
                 nu / solve_upwind,
                 nu / self.cfg.upwind,
                 [&sc.ustar[0], &sc.ustar[1], &sc.ustar[2]],
                 [&old[0], &old[1], &old[2]],
+                &mut sc.correction,
             );
             for (c, rc) in sc.rhs.iter_mut().enumerate() {
                 rc.iter_mut()
-                    .zip(&correction)
+                    .zip(&sc.correction)
                     .for_each(|(r, y)| *r += wi * y[c]);
             }
         }

@@ -378,7 +378,8 @@ impl FaceOperator {
     /// steady states of `N` (deferred correction, Khosla & Rubin 1974, Comput. Fluids
     /// 2:207; Ferziger & Peric 2002, "Computational methods for fluid dynamics",
     /// sec. 4.4.6). Each face from its two cells alone ([`FaceOperator::apply_at`]):
-    /// no table over the grid. `self` is the lumped operator without convection.
+    /// no table over the grid. `self` is the lumped operator without convection; `y` is
+    /// written in place (storage reused from step to step).
     pub(crate) fn upwind_correction(
         &self,
         geometry: &ConvectionGeometry,
@@ -386,24 +387,25 @@ impl FaceOperator {
         nu_target: f64,
         w: [&[f64]; 3],
         x: [&[f64]; 3],
-    ) -> Vec<[f64; 3]> {
+        y: &mut Vec<[f64; 3]>,
+    ) {
         let lay = &self.layout;
         let (solve, target) = (
             self.clone().with_upwind_viscosity(nu_solve),
             self.clone().with_upwind_viscosity(nu_target),
         );
-        (0..lay.num_faces())
-            .into_par_iter()
+        y.resize(lay.num_faces(), [0.0; 3]);
+        y.par_iter_mut()
             .with_min_len(MIN_TASK / 24)
-            .map(|i| {
+            .enumerate()
+            .for_each(|(i, out)| {
                 let (a, f) = lay.face_of(i);
                 let (s, t) = (
                     solve.apply_at(geometry, w, a, f, x),
                     target.apply_at(geometry, w, a, f, x),
                 );
-                [s[0] - t[0], s[1] - t[1], s[2] - t[2]]
-            })
-            .collect()
+                *out = [s[0] - t[0], s[1] - t[1], s[2] - t[2]];
+            });
     }
 
     /// [`FaceOperator::row`] with the convection record of cell `c` from `conv(c)`

@@ -90,7 +90,7 @@ pub fn velocity_blending(
     let grid = flow.solver.grid().clone();
     let lay = grid.layout();
     let (h, lower, n) = (grid.h(), grid.lower, lay.n);
-    let half_diagonal = 0.5 * (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+    let half_diagonal = half_cell_diagonal(&grid);
     if health.failure.is_none() {
         if let Some((_, what)) = outside_the_fluid(&grid, &particles) {
             health.failure = Some(format!(
@@ -193,13 +193,18 @@ pub fn velocity_blending(
     flow.solver.u = u;
 }
 
+/// Half the diagonal of a cell: how far past a sphere its marked cells reach.
+fn half_cell_diagonal(grid: &Grid) -> f64 {
+    let h = grid.h();
+    0.5 * (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt()
+}
+
 /// The first particle (in row order) that the grid cannot represent, if any: its centre
 /// outside the fluid box, or its marked cells (the sphere plus half a cell diagonal)
 /// reaching across a periodic side: its row, and a message naming it by its id, its
 /// centre and radius, and the side.
 pub fn outside_the_fluid(grid: &Grid, particles: &Particles) -> Option<(usize, String)> {
-    let h = grid.h();
-    let half_diagonal = 0.5 * (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+    let half_diagonal = half_cell_diagonal(grid);
     (0..particles.len()).find_map(|i| {
         let r = particles.radius[i];
         let xp = [0, 1, 2].map(|d| particles.position[d][i]);
