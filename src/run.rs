@@ -290,6 +290,7 @@ impl Simulation {
             &list.start,
             &list.neighbours,
             &list.owner,
+            &list.near_end,
             &list.rev_start,
             &list.rev_pairs,
             &list.rev_owner,

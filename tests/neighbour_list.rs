@@ -95,8 +95,25 @@ fn scene(
     s
 }
 
-/// All partners of particle `i` (its own row and the pairs it is partner in), sorted.
-fn row(list: &VerletList, i: usize) -> Vec<u32> {
+/// All partners of every particle (its own row and the pairs it is partner in), sorted,
+/// from the rows alone.
+fn all_partners(list: &VerletList, n: usize) -> Vec<Vec<u32>> {
+    let mut rows = vec![Vec::new(); n];
+    for i in 0..n {
+        for &j in &list.neighbours[list.start[i] as usize..list.start[i + 1] as usize] {
+            rows[i].push(j);
+            rows[j as usize].push(i as u32);
+        }
+    }
+    for r in &mut rows {
+        r.sort_unstable();
+    }
+    rows
+}
+
+/// The near partners of particle `i` through the list's own accessor (near row prefix and
+/// reverse index), sorted.
+fn near_partners(list: &VerletList, i: usize) -> Vec<u32> {
     let mut r: Vec<u32> = list.partners(i).collect();
     r.sort_unstable();
     r
@@ -113,10 +130,20 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
     assert_eq!(list.start[n] as usize, list.neighbours.len());
     // A half list: each pair once, in the row of its lower row index; owner and reverse
     // index consistent with the rows.
+    // Narrowed rows (two-level list): the near pairs of row i are
+    // start[i]..near_end[i], and the reverse index lists exactly the near pairs.
     assert_eq!(list.owner.len(), list.pairs());
     assert_eq!(list.rev_start.len(), n + 1);
-    assert_eq!(list.rev_pairs.len(), list.pairs());
+    assert_eq!(list.near_end.len(), n);
+    let near_pairs: usize = (0..n)
+        .map(|i| (list.near_end[i] - list.start[i]) as usize)
+        .sum();
+    assert_eq!(list.rev_pairs.len(), near_pairs);
     for i in 0..n {
+        assert!(
+            list.start[i] <= list.near_end[i] && list.near_end[i] <= list.start[i + 1],
+            "near end of row {i} outside its row"
+        );
         for k in list.start[i] as usize..list.start[i + 1] as usize {
             assert_eq!(list.owner[k] as usize, i, "owner of pair {k}");
             assert!(
@@ -124,10 +151,18 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
                 "pair {k} is stored in the row of its lower index"
             );
         }
-        for &k in &list.rev_pairs[list.rev_start[i] as usize..list.rev_start[i + 1] as usize] {
+        for (&k, &o) in list.rev_pairs[list.rev_start[i] as usize..list.rev_start[i + 1] as usize]
+            .iter()
+            .zip(&list.rev_owner[list.rev_start[i] as usize..list.rev_start[i + 1] as usize])
+        {
             assert_eq!(
                 list.neighbours[k as usize] as usize, i,
                 "reverse index of particle {i}"
+            );
+            assert_eq!(list.owner[k as usize], o, "reverse owner of pair {k}");
+            assert!(
+                (k as usize) < list.near_end[o as usize] as usize,
+                "reverse index of particle {i} lists pair {k}, beyond the near end of its row"
             );
         }
     }
@@ -157,8 +192,10 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
         "a particle moved {max_disp:e} m since the last rebuild, more than skin/2 = {:e} m",
         0.5 * skin
     );
+    let rows = all_partners(list, n);
     for i in 0..n {
-        let listed = row(list, i);
+        let listed = &rows[i];
+        let near = near_partners(list, i);
         // (b) Exactly the pairs within r_i + r_j + skin at the rebuild positions, with
         // the list's own expression for the cut-off.
         let (xi, yi, zi, ri) = (rx[i], ry[i], rz[i], r[i] + skin);
@@ -171,7 +208,7 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
             .map(|j| j as u32)
             .collect();
         assert_eq!(
-            listed, brute,
+            listed, &brute,
             "row {i} (id {}) differs from the brute-force search at the rebuild positions",
             p.id[i]
         );
@@ -194,6 +231,17 @@ fn check_list(sim: &Simulation, radius_of_id: &[f64]) -> (usize, usize) {
                     p.id[i],
                     p.id[j],
                     r[i] + r[j]
+                );
+            }
+            // (c) Every pair in contact is among the near pairs the contact passes read.
+            if d < r[i] + r[j] {
+                assert!(
+                    near.binary_search(&(j as u32)).is_ok(),
+                    "pair ids {} and {} in contact (distance {d:e}) is not among the near \
+                     pairs (inner skin {:e} m)",
+                    p.id[i],
+                    p.id[j],
+                    list.inner_skin
                 );
             }
         }
@@ -261,22 +309,43 @@ fn sparse_tall_set_uses_large_cells() {
 
 #[test]
 fn falling_block_through_many_rebuilds() {
-    falling_block(1);
+    falling_block(1, 0.5, -200.0, 300, [0.02, 0.02, 0.04]);
 }
 
 /// Re-sorted at every third rebuild only: the builds in between scan cells whose members
 /// are not in row order (the list's other path).
 #[test]
 fn falling_block_sorted_every_third_rebuild() {
-    falling_block(3);
+    falling_block(3, 0.5, -200.0, 300, [0.02, 0.02, 0.04]);
 }
 
-fn falling_block(sort_every: u32) {
-    let (lo, hi) = ([0.0; 3], [0.02, 0.02, 0.04]);
+/// A dense block slow enough for narrowed rows (an inner skin below the skin) between
+/// rebuilds, and their renewal as the bound on the motion since the last narrowing
+/// reaches half the inner skin; contacts form and must all be among the near pairs.
+#[test]
+fn settling_block_with_narrowed_rows() {
+    let (narrowings, contacts) = falling_block(1, 0.02, -20.0, 450, [0.018; 3]);
+    assert!(
+        narrowings >= 20 && contacts >= 10,
+        "the run narrowed the rows {narrowings} times with up to {contacts} contacts"
+    );
+}
+
+/// A block of `n` spheres with random velocities (components up to +-`speed`) falling in
+/// the box 0..`hi` under `gravity`, the list checked at every one of 3,000 steps; returns
+/// how many times the rows were narrowed and the most pairs in contact at once.
+fn falling_block(
+    sort_every: u32,
+    speed: f64,
+    gravity: f64,
+    n: usize,
+    hi: [f64; 3],
+) -> (u64, usize) {
+    let lo = [0.0; 3];
     let mut rng = Rng(2024);
-    let spheres = random_spheres(&mut rng, 300, (0.5e-3, 1.5e-3), lo, hi, 0.5);
+    let spheres = random_spheres(&mut rng, n, (0.5e-3, 1.5e-3), lo, hi, speed);
     let radius_of_id: Vec<f64> = spheres.iter().map(|s| s.radius).collect();
-    let text = scene(&spheres, Some((lo, hi)), -200.0, None, 4e-6)
+    let text = scene(&spheres, Some((lo, hi)), gravity, None, 4e-6)
         + &format!("\n[neighbour]\nsort_every = {sort_every}\n");
     let mut sim = simulation(&text, "falling.toml");
     let (mut rebuild_steps, mut last_builds, mut most_contacts) = (0, 0, 0);
@@ -293,13 +362,17 @@ fn falling_block(sort_every: u32) {
     }
     let list = sim.world.resource::<VerletList>();
     eprintln!(
-        "3000 steps: {} list builds, {} re-sorts, {} listed pairs at the end, up to {} \
-         contacts",
+        "3000 steps: {} list builds, {} re-sorts, {} narrowings, {} listed pairs at the \
+         end, up to {} contacts",
         list.builds,
         list.sorts,
+        list.narrowings,
         list.pairs(),
         most_contacts
     );
+    if speed < 0.1 {
+        return (list.narrowings, most_contacts);
+    }
     let unsorted = list.builds - list.sorts;
     assert!(
         rebuild_steps >= 50
@@ -311,4 +384,5 @@ fn falling_block(sort_every: u32) {
         list.builds,
         list.sorts
     );
+    (list.narrowings, most_contacts)
 }

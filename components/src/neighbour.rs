@@ -18,11 +18,26 @@ pub struct NeighbourSettings {
 /// `rev_pairs[rev_start[p]..rev_start[p+1]]`, ascending, with their owners beside them in
 /// `rev_owner` (the same as `owner[rev_pairs[..]]`, kept to spare the hot loop a lookup). With it, every particle sums the
 /// forces of all its pairs itself, in a fixed order, while each pair force is computed once.
+///
+/// Narrowed rows (a two-level Verlet list): between rebuilds, each row can be ordered with
+/// its pairs within `r_i + r_j + inner_skin` first, up to `near_end[i]`, and the reverse
+/// index then lists those near pairs only. Until some particle has moved `inner_skin / 2`
+/// no pair beyond `near_end` can touch, so the contact passes read the near pairs only.
+/// Without narrowing, `near_end[i] = start[i + 1]`. Rows are narrowed only in scenes
+/// without a contact store ([`ContactHistory`]): narrowing reorders the pairs of a row.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct VerletList {
     pub start: Vec<u32>,
     pub neighbours: Vec<u32>,
     pub owner: Vec<u32>,
+    pub near_end: Vec<u32>,
+    /// The inner skin of the last narrowing (the full `skin`: rows not narrowed).
+    pub inner_skin: f64,
+    /// Upper bound of any particle's displacement since the last narrowing, and the steps
+    /// since.
+    pub inner_bound: f64,
+    pub inner_steps: u32,
+    pub narrowings: u64,
     pub rev_start: Vec<u32>,
     pub rev_pairs: Vec<u32>,
     pub rev_owner: Vec<u32>,
@@ -51,10 +66,10 @@ impl VerletList {
         self.neighbours.len()
     }
 
-    /// All partners of particle `i`: its own row, then the owners of the pairs it is
-    /// partner in.
+    /// All near partners of particle `i` (all partners when the rows are not narrowed):
+    /// its own row, then the owners of the pairs it is partner in.
     pub fn partners(&self, i: usize) -> impl Iterator<Item = u32> + '_ {
-        let fwd = &self.neighbours[self.start[i] as usize..self.start[i + 1] as usize];
+        let fwd = &self.neighbours[self.start[i] as usize..self.near_end[i] as usize];
         let rev = &self.rev_owner[self.rev_start[i] as usize..self.rev_start[i + 1] as usize];
         fwd.iter().copied().chain(rev.iter().copied())
     }

@@ -320,7 +320,7 @@ fn owner_rows<T: PairTable, D: NormalDamping>(
     let mut worst = (0.0f64, u32::MAX);
     for k in 0..fx.len() {
         let i = base + k;
-        let row = start[i] as usize..start[i + 1] as usize;
+        let row = start[i] as usize..list.near_end[i] as usize;
         if row.is_empty() {
             (fx[k], fy[k], fz[k]) = (0.0, 0.0, 0.0);
             continue;

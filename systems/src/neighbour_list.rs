@@ -11,7 +11,7 @@ use grainflow_components::{
 };
 use rayon::prelude::*;
 
-use crate::CHUNK;
+use crate::{row_chunks, CHUNK};
 
 /// Rebuild the Verlet list when needed, re-sorting particles in cell order.
 pub fn verlet_list(
@@ -28,18 +28,159 @@ pub fn verlet_list(
     let half_skin = 0.5 * settings.skin;
     // The integrator's bound on this step's motion spares the exact check (a pass over
     // all positions) until the bound itself reaches skin/2.
-    list.motion_bound += motion
+    let step_motion = motion
         .max_component
         .map_or(f64::INFINITY, |m| 3f64.sqrt() * m);
+    list.motion_bound += step_motion;
     let mut stale = list.stale || list.reference[0].len() != n;
     if !stale && list.motion_bound > half_skin {
         let exact = max_displacement_squared(&particles, &list).sqrt();
         stale = exact > half_skin;
         list.motion_bound = exact;
     }
-    if !stale {
+    // Narrowing reorders the pairs of a row: not with a per-pair contact history.
+    let narrow = history.is_none();
+    if stale {
+        rebuild(&mut particles, &mut list, &settings, &mut reorder, history);
+    }
+    if narrow {
+        narrow_when_due(&particles, &mut list, settings.skin, step_motion, stale);
+    }
+}
+
+/// Aimed-for number of steps between two narrowings of the rows: the inner skin is set to
+/// the distance the particles are expected to cover in that many steps (twice their mean
+/// bound per step since the last narrowing), so a narrowing, which costs about one pass
+/// over the list, is paid for by that many cheaper contact passes.
+const STEPS_PER_NARROWING: f64 = 50.0;
+
+/// Narrow the rows (see [`VerletList::near_end`]) after a rebuild, or when some particle
+/// may have moved half the inner skin since the last narrowing; widen them again to the
+/// whole list when the particles move too fast for an inner skin below `skin` to last.
+fn narrow_when_due(
+    particles: &Particles,
+    list: &mut VerletList,
+    skin: f64,
+    step_motion: f64,
+    rebuilt: bool,
+) {
+    list.inner_bound += step_motion;
+    list.inner_steps += 1;
+    if !rebuilt && list.inner_bound <= 0.5 * list.inner_skin {
         return;
     }
+    let per_step = if list.inner_steps > 1 {
+        list.inner_bound / list.inner_steps as f64
+    } else {
+        step_motion
+    };
+    let inner = (2.0 * STEPS_PER_NARROWING * per_step).max(skin / 32.0);
+    if inner < skin {
+        narrow_rows(particles, list, inner);
+    } else if list.inner_skin < skin {
+        let _span = tracing::info_span!("widen_rows").entered();
+        let (start, near_end) = (&list.start, &mut list.near_end);
+        near_end.clear();
+        near_end.extend_from_slice(&start[1..]);
+        list.inner_skin = skin;
+        index_near_pairs(list);
+    }
+    list.inner_bound = 0.0;
+    list.inner_steps = 0;
+}
+
+/// Order every row with its pairs within `r_i + r_j + inner_skin` first, in list order (a
+/// stable partition), set `near_end`, and index the near pairs by partner.
+fn narrow_rows(particles: &Particles, list: &mut VerletList, inner_skin: f64) {
+    let _span = tracing::info_span!("narrow_rows").entered();
+    let n = particles.len();
+    let [x, y, z] = &particles.position;
+    let r = &particles.radius;
+    let VerletList {
+        start,
+        neighbours,
+        near_end,
+        ..
+    } = list;
+    near_end.resize(n, 0);
+    (
+        row_chunks(neighbours, start, n, 1),
+        near_end.par_chunks_mut(CHUNK).collect::<Vec<_>>(),
+    )
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(c, (nbrs, ends))| {
+            let base = c * CHUNK;
+            let pair_base = start[base] as usize;
+            let mut far = Vec::new();
+            for (k, end) in ends.iter_mut().enumerate() {
+                let i = base + k;
+                let row = start[i] as usize - pair_base..start[i + 1] as usize - pair_base;
+                let row = &mut nbrs[row];
+                let (xi, yi, zi, ri) = (x[i], y[i], z[i], r[i] + inner_skin);
+                far.clear();
+                let mut near = 0;
+                for q in 0..row.len() {
+                    let j = row[q] as usize;
+                    let (dx, dy, dz) = (xi - x[j], yi - y[j], zi - z[j]);
+                    let reach = ri + r[j];
+                    if dx * dx + dy * dy + dz * dz < reach * reach {
+                        row[near] = j as u32;
+                        near += 1;
+                    } else {
+                        far.push(j as u32);
+                    }
+                }
+                row[near..].copy_from_slice(&far);
+                *end = start[i] + near as u32;
+            }
+        });
+    list.inner_skin = inner_skin;
+    list.narrowings += 1;
+    index_near_pairs(list);
+}
+
+/// The reverse index of the near pairs (all pairs when the rows are not narrowed): by
+/// partner, ascending pair index within each partner.
+fn index_near_pairs(list: &mut VerletList) {
+    let n = list.near_end.len();
+    list.rev_start.clear();
+    list.rev_start.resize(n + 1, 0);
+    for i in 0..n {
+        for &j in &list.neighbours[list.start[i] as usize..list.near_end[i] as usize] {
+            list.rev_start[j as usize + 1] += 1;
+        }
+    }
+    for p in 0..n {
+        list.rev_start[p + 1] += list.rev_start[p];
+    }
+    let near = list.rev_start[n] as usize;
+    let mut fill = list.rev_start.clone();
+    list.rev_pairs.clear();
+    list.rev_pairs.resize(near, 0);
+    list.rev_owner.clear();
+    list.rev_owner.resize(near, 0);
+    for i in 0..n {
+        for k in list.start[i] as usize..list.near_end[i] as usize {
+            let j = list.neighbours[k] as usize;
+            let slot = fill[j] as usize;
+            list.rev_pairs[slot] = k as u32;
+            list.rev_owner[slot] = i as u32;
+            fill[j] += 1;
+        }
+    }
+}
+
+/// Rebuild the list from the cell index, re-sorting the particles in cell order at every
+/// `sort_every`-th rebuild, and carry the contact history over.
+fn rebuild(
+    particles: &mut Particles,
+    list: &mut VerletList,
+    settings: &NeighbourSettings,
+    reorder: &mut Reorder,
+    history: Option<ResMut<ContactHistory>>,
+) {
+    let n = particles.len();
     let _span = tracing::info_span!("verlet_rebuild").entered();
     // The old list, keyed by stable ids, for carrying the contact history over.
     let old = history.as_ref().map(|_| OldList {
@@ -49,8 +190,8 @@ pub fn verlet_list(
     });
     let sort = settings.sort_every > 0 && list.builds.is_multiple_of(settings.sort_every as u64);
     let cell_sort = tracing::info_span!("cell_sort").entered();
-    let grid = CellGrid::new(&particles, settings.skin);
-    let mut cell_of = grid.cell_indices(&particles);
+    let grid = CellGrid::new(particles, settings.skin);
+    let mut cell_of = grid.cell_indices(particles);
     let order = grid.counting_sort(&cell_of);
     let members = if sort && n > 0 {
         particles.permute_rows(&order.members);
@@ -63,16 +204,16 @@ pub fn verlet_list(
     };
     drop(cell_sort);
     build_half_list(
-        &particles,
+        particles,
         &grid,
         &cell_of,
         &order.cell_start,
         members.as_deref(),
         settings.skin,
-        &mut list,
+        list,
     );
     if let (Some(mut history), Some(old)) = (history, old) {
-        carry_history(&mut history, &old, &particles.id, &list);
+        carry_history(&mut history, &old, &particles.id, list);
     }
     for d in 0..3 {
         list.reference[d].clone_from(&particles.position[d]);
@@ -336,6 +477,11 @@ fn build_half_list(
     list.start.push(0);
     list.neighbours.clear();
     list.owner.clear();
+    // Exact capacities (no growth by doubling): the list is most of the memory per
+    // particle beside the particle state.
+    let pairs: usize = rows.iter().map(|(nbrs, _)| nbrs.len()).sum();
+    list.neighbours.reserve_exact(pairs);
+    list.owner.reserve_exact(pairs);
     let mut total = 0u32;
     let mut i = 0u32;
     for (nbrs, counts) in &rows {
@@ -347,26 +493,10 @@ fn build_half_list(
         }
         list.neighbours.extend_from_slice(nbrs);
     }
-    // Reverse index: pairs by partner, ascending pair index within each partner.
-    list.rev_start.clear();
-    list.rev_start.resize(n + 1, 0);
-    for &j in &list.neighbours {
-        list.rev_start[j as usize + 1] += 1;
-    }
-    for p in 0..n {
-        list.rev_start[p + 1] += list.rev_start[p];
-    }
-    let mut fill = list.rev_start.clone();
-    list.rev_pairs.clear();
-    list.rev_pairs.resize(list.neighbours.len(), 0);
-    list.rev_owner.clear();
-    list.rev_owner.resize(list.neighbours.len(), 0);
-    for (k, &j) in list.neighbours.iter().enumerate() {
-        let slot = fill[j as usize] as usize;
-        list.rev_pairs[slot] = k as u32;
-        list.rev_owner[slot] = list.owner[k];
-        fill[j as usize] += 1;
-    }
+    list.near_end.clear();
+    list.near_end.extend_from_slice(&list.start[1..]);
+    list.inner_skin = skin;
+    index_near_pairs(list);
 }
 
 /// The list before a rebuild, with the ids of its rows.
