@@ -375,6 +375,8 @@ impl Simulation {
             "max_overlap_ratio": health.run_max_overlap_ratio,
             "neighbour_list_builds": list.builds,
             "neighbour_pairs_per_particle": list.pairs() as f64 / n.max(1) as f64,
+            "neighbour_list_narrowings": list.narrowings,
+            "near_pairs_per_particle": list.rev_pairs.len() as f64 / n.max(1) as f64,
             "contact_store_bytes_per_pair": self
                 .world
                 .contains_resource::<ContactHistory>()

@@ -169,6 +169,55 @@ fn thread_count_and_repetition_do_not_change_a_bit() {
     assert_identical(&two, &again, "two runs with --threads 2");
 }
 
+/// The same scene with the upper block slow (settling, not falling): slow enough for the
+/// rows to be narrowed between rebuilds (`VerletList::near_end`), whose decisions must
+/// not depend on the thread count either.
+#[test]
+fn narrowed_rows_do_not_change_a_bit() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    // The lower block a lattice of touching spheres standing on the floor (contacts under
+    // their weight from the start), the upper block just above it.
+    let text = SCENE
+        .replace(
+            "velocity = [0.3, -0.2, -1.0]",
+            "velocity = [0.0, 0.0, -0.01]",
+        )
+        .replace("spacing = 2.3e-3", "spacing = 2.0e-3")
+        .replace(
+            "min = [1.2e-3, 1.2e-3, 1.2e-3]",
+            "min = [1.2e-3, 1.2e-3, 1.0e-3]",
+        )
+        .replace(
+            "max = [0.0388, 0.0388, 0.0095]",
+            "max = [0.0388, 0.0388, 0.0125]",
+        )
+        .replace(
+            "min = [0.8e-3, 0.8e-3, 0.0105]",
+            "min = [0.8e-3, 0.8e-3, 0.0135]",
+        )
+        .replace(
+            "max = [0.0392, 0.0392, 0.0160]",
+            "max = [0.0392, 0.0392, 0.0190]",
+        );
+    let scene = write_scene(dir.path(), "determinism-settling.toml", &text);
+    let one = run(&scene, &dir.path().join("t1"), 1);
+    let two = run(&scene, &dir.path().join("t2"), 2);
+    let narrowings = |r: &RunResult| {
+        r.summary["neighbour_list_narrowings"]
+            .as_u64()
+            .expect("narrowings")
+    };
+    assert!(narrowings(&one) > 0, "the rows were never narrowed");
+    assert_eq!(narrowings(&one), narrowings(&two), "narrowings differ");
+    let overlap = one.summary["max_overlap_ratio"].as_f64().expect("overlap");
+    assert!(overlap > 1e-3, "hardly any contact in the run ({overlap})");
+    eprintln!(
+        "{} narrowings, largest overlap ratio {overlap:.3e}",
+        narrowings(&one)
+    );
+    assert_identical(&one, &two, "narrowed rows, --threads 1 against --threads 2");
+}
+
 /// The same with Coulomb friction, rolling resistance and JKR adhesion: the contact system
 /// with history (pairs in blocks of four lanes, walls scalar) and the rotation integrator
 /// are bitwise reproducible too.
