@@ -6,31 +6,16 @@ use clap::Parser;
 /// a CPU may lack, by the names `is_x86_feature_detected!` knows.
 #[cfg(target_arch = "x86_64")]
 fn missing_instruction_sets() -> Vec<&'static str> {
-    use std::arch::is_x86_feature_detected as has;
-    [
-        (cfg!(target_feature = "avx2"), "avx2", has!("avx2")),
-        (cfg!(target_feature = "fma"), "fma", has!("fma")),
-        (cfg!(target_feature = "avx512f"), "avx512f", has!("avx512f")),
-        (
-            cfg!(target_feature = "avx512dq"),
-            "avx512dq",
-            has!("avx512dq"),
-        ),
-        (
-            cfg!(target_feature = "avx512vl"),
-            "avx512vl",
-            has!("avx512vl"),
-        ),
-        (
-            cfg!(target_feature = "avx512bw"),
-            "avx512bw",
-            has!("avx512bw"),
-        ),
-    ]
-    .into_iter()
-    .filter(|&(built, _, present)| built && !present)
-    .map(|(_, name, _)| name)
-    .collect()
+    let mut missing = Vec::new();
+    macro_rules! check {
+        ($($name:tt),*) => {$(
+            if cfg!(target_feature = $name) && !std::arch::is_x86_feature_detected!($name) {
+                missing.push($name);
+            }
+        )*};
+    }
+    check!("avx2", "fma", "avx512f", "avx512dq", "avx512vl", "avx512bw");
+    missing
 }
 
 fn main() -> ExitCode {

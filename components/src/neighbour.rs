@@ -22,7 +22,9 @@ pub struct NeighbourSettings {
 /// Narrowed rows (a two-level Verlet list): between rebuilds, each row can be ordered with
 /// its pairs within `r_i + r_j + inner_skin` first, up to `near_end[i]`, and the reverse
 /// index then lists those near pairs only. Until some particle has moved `inner_skin / 2`
-/// no pair beyond `near_end` can touch, so the contact passes read the near pairs only.
+/// no pair beyond `near_end` can touch, so the per-particle pair pass and the partner
+/// pass read the near pairs only (the pair-ordered pass of sparse chunks reads whole
+/// chunks, where a far pair just adds zero).
 /// Without narrowing, `near_end[i] = start[i + 1]`. Rows are narrowed only in scenes
 /// without a contact store ([`ContactHistory`]): narrowing reorders the pairs of a row.
 #[derive(Resource, Debug, Clone, Default)]

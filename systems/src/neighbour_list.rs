@@ -79,11 +79,7 @@ fn narrow_when_due(
         narrow_rows(particles, list, inner);
     } else if list.inner_skin < skin {
         let _span = tracing::info_span!("widen_rows").entered();
-        let (start, near_end) = (&list.start, &mut list.near_end);
-        near_end.clear();
-        near_end.extend_from_slice(&start[1..]);
-        list.inner_skin = skin;
-        index_near_pairs(list);
+        whole_rows(list, skin);
     }
     list.inner_bound = 0.0;
     list.inner_steps = 0;
@@ -137,6 +133,14 @@ fn narrow_rows(particles: &Particles, list: &mut VerletList, inner_skin: f64) {
         });
     list.inner_skin = inner_skin;
     list.narrowings += 1;
+    index_near_pairs(list);
+}
+
+/// Every pair of each row near (rows not narrowed), with its reverse index.
+fn whole_rows(list: &mut VerletList, skin: f64) {
+    list.near_end.clear();
+    list.near_end.extend_from_slice(&list.start[1..]);
+    list.inner_skin = skin;
     index_near_pairs(list);
 }
 
@@ -493,10 +497,7 @@ fn build_half_list(
         }
         list.neighbours.extend_from_slice(nbrs);
     }
-    list.near_end.clear();
-    list.near_end.extend_from_slice(&list.start[1..]);
-    list.inner_skin = skin;
-    index_near_pairs(list);
+    whole_rows(list, skin);
 }
 
 /// The list before a rebuild, with the ids of its rows.
