@@ -9,6 +9,7 @@ use grainflow_components::{
     Clamped, ContactHistory, FluidFlow, GearState, Materials, Particles, PerParticle, Rotation,
     RunHealth, SimClock, VerletList, VerletState, WallHistory,
 };
+use grainflow_systems::monitor::kinetic_energy;
 use grainflow_systems::schedule::Slot;
 use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
 
@@ -371,7 +372,7 @@ impl Simulation {
             "peak_memory_bytes": peak,
             "peak_memory_per_particle_bytes": peak.map(|p| p as f64 / n.max(1) as f64),
             "state_bytes_per_particle": self.bytes_per_particle(),
-            "kinetic_energy": health.kinetic_energy,
+            "kinetic_energy": kinetic_energy(self.world.resource::<Particles>()),
             "max_overlap_ratio": health.run_max_overlap_ratio,
             "neighbour_list_builds": list.builds,
             "neighbour_pairs_per_particle": list.pairs() as f64 / n.max(1) as f64,

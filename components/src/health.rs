@@ -15,6 +15,4 @@ pub struct RunHealth {
     pub non_finite_particle: Option<u32>,
     /// Set by the monitor: why the run must stop.
     pub failure: Option<String>,
-    /// Kinetic energy (translation) after the last corrector, J.
-    pub kinetic_energy: f64,
 }

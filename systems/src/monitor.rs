@@ -14,7 +14,9 @@ pub fn advance_clock(mut clock: ResMut<SimClock>) {
     clock.time = clock.step as f64 * clock.dt;
 }
 
-/// Kinetic energy, the first non-finite particle row, and the failure verdict.
+/// The first non-finite particle and the failure verdict. Every step reads positions and
+/// velocities once; the kinetic energy, wanted only in the run summary, is computed there
+/// ([`kinetic_energy`]).
 pub fn stability_monitor(
     particles: Res<Particles>,
     clock: Res<SimClock>,
@@ -23,46 +25,34 @@ pub fn stability_monitor(
     let _span = tracing::info_span!("stability_monitor").entered();
     let [x, y, z] = &particles.position;
     let [vx, vy, vz] = &particles.velocity;
-    let im = &particles.inv_mass;
     let n = particles.len();
-    // Per-chunk sums added in chunk order: the same value for any thread count.
-    let parts: Vec<(f64, Option<usize>)> = (0..n.div_ceil(CHUNK))
+    // The first non-finite row of each chunk, in chunk order.
+    let first_bad = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             let range = c * CHUNK..((c + 1) * CHUNK).min(n);
-            // Branch-free sums, four particles at a time in lanes (one running sum would
-            // wait on the previous addition at every particle); a non-finite value
-            // anywhere makes `check` non-finite, and only then is the chunk searched for
-            // its first one. Lanes and the tail are added in a fixed order.
-            let (mut ke, mut check) = (f64x4::ZERO, f64x4::ZERO);
+            let state =
+                |i: usize| vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i] + x[i] + y[i] + z[i];
+            // Branch-free, four particles at a time in lanes: a non-finite value anywhere
+            // makes `check` non-finite, and only then is the chunk searched for its first.
+            let mut check = f64x4::ZERO;
             let lanes =
                 |col: &[f64], i: usize| f64x4::new([col[i], col[i + 1], col[i + 2], col[i + 3]]);
             let whole = range.start + range.len() / 4 * 4;
             for i in (range.start..whole).step_by(4) {
                 let (a, b, c) = (lanes(vx, i), lanes(vy, i), lanes(vz, i));
-                let v2 = a * a + b * b + c * c;
-                ke += f64x4::splat(0.5) * v2 / lanes(im, i);
-                check += v2 + lanes(x, i) + lanes(y, i) + lanes(z, i);
+                check += a * a + b * b + c * c + lanes(x, i) + lanes(y, i) + lanes(z, i);
             }
-            let (mut ke, mut check) = (lane_sum(ke), lane_sum(check));
-            for i in whole..range.end {
-                let v2 = vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i];
-                ke += 0.5 * v2 / im[i];
-                check += v2 + x[i] + y[i] + z[i];
-            }
-            let bad = if check.is_finite() {
+            let check = (whole..range.end).fold(lane_sum(check), |s, i| s + state(i));
+            if check.is_finite() {
                 None
             } else {
-                range.into_iter().find(|&i| {
-                    !(vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i] + x[i] + y[i] + z[i])
-                        .is_finite()
-                })
-            };
-            (ke, bad)
+                range.into_iter().find(|&i| !state(i).is_finite())
+            }
         })
-        .collect();
-    health.kinetic_energy = parts.iter().map(|p| p.0).sum();
-    health.non_finite_particle = parts.iter().find_map(|p| p.1).map(|i| particles.id[i]);
+        .find_first(|bad| bad.is_some())
+        .flatten();
+    health.non_finite_particle = first_bad.map(|i| particles.id[i]);
     if health.failure.is_some() {
         return;
     }
@@ -82,4 +72,30 @@ pub fn stability_monitor(
             100.0 * health.overlap_limit
         ));
     }
+}
+
+/// Kinetic energy of translation, sum of m v^2 / 2, J: per-chunk sums (four particles at a
+/// time in lanes) added in chunk order, the same value for any thread count.
+pub fn kinetic_energy(particles: &Particles) -> f64 {
+    let [vx, vy, vz] = &particles.velocity;
+    let im = &particles.inv_mass;
+    let n = particles.len();
+    let parts: Vec<f64> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let range = c * CHUNK..((c + 1) * CHUNK).min(n);
+            let lanes =
+                |col: &[f64], i: usize| f64x4::new([col[i], col[i + 1], col[i + 2], col[i + 3]]);
+            let whole = range.start + range.len() / 4 * 4;
+            let mut ke = f64x4::ZERO;
+            for i in (range.start..whole).step_by(4) {
+                let (a, b, c) = (lanes(vx, i), lanes(vy, i), lanes(vz, i));
+                ke += f64x4::splat(0.5) * (a * a + b * b + c * c) / lanes(im, i);
+            }
+            (whole..range.end).fold(lane_sum(ke), |s, i| {
+                s + 0.5 * (vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i]) / im[i]
+            })
+        })
+        .collect();
+    parts.iter().sum()
 }

@@ -23,7 +23,7 @@
 //! 10. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation
 //!     under contact torques; the clock; kinematic (fixed) particles put back on their
 //!     path
-//! 11. `Monitor`: stability checks (overlap, non-finite state), kinetic energy
+//! 11. `Monitor`: stability checks (overlap, non-finite state)
 //! 12. `Output`: writers (added by the application)
 //!
 //! A scene gets only the systems whose `wanted` test passes on its world, so a scene
