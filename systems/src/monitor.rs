@@ -36,12 +36,10 @@ pub fn stability_monitor(
             // Branch-free, four particles at a time in lanes: a non-finite value anywhere
             // makes `check` non-finite, and only then is the chunk searched for its first.
             let mut check = f64x4::ZERO;
-            let lanes =
-                |col: &[f64], i: usize| f64x4::new([col[i], col[i + 1], col[i + 2], col[i + 3]]);
             let whole = range.start + range.len() / 4 * 4;
             for i in (range.start..whole).step_by(4) {
-                let (a, b, c) = (lanes(vx, i), lanes(vy, i), lanes(vz, i));
-                check += a * a + b * b + c * c + lanes(x, i) + lanes(y, i) + lanes(z, i);
+                let (a, b, c) = (four_at(vx, i), four_at(vy, i), four_at(vz, i));
+                check += a * a + b * b + c * c + four_at(x, i) + four_at(y, i) + four_at(z, i);
             }
             let check = (whole..range.end).fold(lane_sum(check), |s, i| s + state(i));
             if check.is_finite() {
@@ -84,13 +82,11 @@ pub fn kinetic_energy(particles: &Particles) -> f64 {
         .into_par_iter()
         .map(|c| {
             let range = c * CHUNK..((c + 1) * CHUNK).min(n);
-            let lanes =
-                |col: &[f64], i: usize| f64x4::new([col[i], col[i + 1], col[i + 2], col[i + 3]]);
             let whole = range.start + range.len() / 4 * 4;
             let mut ke = f64x4::ZERO;
             for i in (range.start..whole).step_by(4) {
-                let (a, b, c) = (lanes(vx, i), lanes(vy, i), lanes(vz, i));
-                ke += f64x4::splat(0.5) * (a * a + b * b + c * c) / lanes(im, i);
+                let (a, b, c) = (four_at(vx, i), four_at(vy, i), four_at(vz, i));
+                ke += f64x4::splat(0.5) * (a * a + b * b + c * c) / four_at(im, i);
             }
             (whole..range.end).fold(lane_sum(ke), |s, i| {
                 s + 0.5 * (vx[i] * vx[i] + vy[i] * vy[i] + vz[i] * vz[i]) / im[i]
@@ -98,4 +94,10 @@ pub fn kinetic_energy(particles: &Particles) -> f64 {
         })
         .collect();
     parts.iter().sum()
+}
+
+/// Rows i..i + 4 of a column, in lanes.
+#[inline(always)]
+fn four_at(col: &[f64], i: usize) -> f64x4 {
+    f64x4::new([col[i], col[i + 1], col[i + 2], col[i + 3]])
 }
