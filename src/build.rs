@@ -443,7 +443,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         world.insert_resource(ContactHistory {
             width,
             directed: laws.layout.spring,
-            values: Vec::new(),
+            ..Default::default()
         });
         if world.contains_resource::<Walls>() {
             world.insert_resource(WallHistory {

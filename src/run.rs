@@ -339,7 +339,7 @@ impl Simulation {
         let pairs = self
             .world
             .get_resource::<ContactHistory>()
-            .map_or(0, |h| h.values.capacity() * 8);
+            .map_or(0, |h| h.values.capacity() * 8 + h.pairs.bytes());
         let walls = self.world.get_resource::<WallHistory>().map_or(0, |h| {
             h.values.capacity() * 8
                 + h.ids.capacity() * 4
@@ -377,7 +377,11 @@ impl Simulation {
             "neighbour_list_builds": list.builds,
             "neighbour_pairs_per_particle": list.pairs() as f64 / n.max(1) as f64,
             "neighbour_list_narrowings": list.narrowings,
-            "near_pairs_per_particle": list.rev_pairs.len() as f64 / n.max(1) as f64,
+            "near_pairs_per_particle": self
+                .world
+                .get_resource::<ContactHistory>()
+                .map_or(list.rev_pairs.len(), |h| h.pairs.pairs()) as f64
+                / n.max(1) as f64,
             "contact_store_bytes_per_pair": self
                 .world
                 .contains_resource::<ContactHistory>()

@@ -53,7 +53,7 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
     sim.world.insert_resource(ContactHistory {
         width: 4,
         directed: Some(0),
-        values: Vec::new(),
+        ..Default::default()
     });
     sim.start();
     let mut carried = 0usize;
@@ -71,12 +71,12 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
         last_builds = builds;
         rebuilds_seen += rebuilt as usize;
         let ids = sim.world.resource::<Particles>().id.clone();
-        let list = sim.world.resource::<VerletList>().clone();
         let mut history = sim.world.resource_mut::<ContactHistory>();
+        let list = history.pairs.clone();
         assert_eq!(
             history.values.len(),
             history.len_for(list.pairs()),
-            "one history slot per listed pair"
+            "one history slot per pair of the store"
         );
         for k in 0..list.pairs() {
             let (a, b) = (
@@ -120,5 +120,77 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
     assert!(
         turned > 10,
         "pairs whose row owner changed at a rebuild keep their history, turned ({turned})"
+    );
+}
+
+/// The store keeps its own compact list of pairs (a two-level Verlet list): the listed
+/// pairs within r_i + r_j + inner skin and every pair that holds history. Checked at
+/// every step of a block settling with friction against a brute-force search: every pair
+/// in contact is among the store's pairs (else its spring would be lost), every pair of
+/// the store is listed, and the rows and reverse index agree.
+#[test]
+fn store_pairs_hold_every_contact_while_a_block_settles() {
+    let path = Path::new("contact-store-friction.toml");
+    let text = SCENE.replace("restitution = 0.5", "restitution = 0.5\nfriction = 0.5");
+    let scene = scene::parse(&text, path, &[]).expect("scene");
+    let mut sim = Simulation::new(scene, path, None).expect("world");
+    sim.start();
+    let (mut most_contacts, mut selections) = (0, 0);
+    for _ in 0..3000 {
+        sim.step();
+        assert!(sim.failure().is_none(), "{:?}", sim.failure());
+        let p = sim.world.resource::<Particles>();
+        let list = sim.world.resource::<VerletList>();
+        let store = &sim.world.resource::<ContactHistory>().pairs;
+        let n = p.len();
+        assert_eq!(store.start.len(), n + 1, "one row per particle");
+        assert_eq!(store.ids, p.id, "the store's rows are the particles' rows");
+        selections = list.narrowings;
+        let row =
+            |i: usize| &store.neighbours[store.start[i] as usize..store.start[i + 1] as usize];
+        for i in 0..n {
+            let listed = &list.neighbours[list.start[i] as usize..list.start[i + 1] as usize];
+            assert!(row(i).windows(2).all(|w| w[0] < w[1]), "row {i} ascending");
+            for (k, &j) in (store.start[i]..store.start[i + 1]).zip(row(i)) {
+                assert_eq!(store.owner[k as usize] as usize, i, "owner of pair {k}");
+                assert!(listed.contains(&j), "store pair ({i}, {j}) is not listed");
+            }
+            let rev =
+                &store.rev_pairs[store.rev_start[i] as usize..store.rev_start[i + 1] as usize];
+            assert!(
+                rev.windows(2).all(|w| w[0] < w[1]),
+                "reverse index of {i} ascending"
+            );
+            assert!(
+                rev.iter()
+                    .all(|&k| store.neighbours[k as usize] as usize == i),
+                "reverse index of particle {i}"
+            );
+        }
+        let [x, y, z] = &p.position;
+        let mut contacts = 0;
+        for i in 0..n {
+            for j in i + 1..n {
+                let d2 = (x[i] - x[j]).powi(2) + (y[i] - y[j]).powi(2) + (z[i] - z[j]).powi(2);
+                if d2.sqrt() < p.radius[i] + p.radius[j] {
+                    contacts += 1;
+                    assert!(
+                        row(i).contains(&(j as u32)),
+                        "pair ids {} and {} in contact is not among the store's pairs \
+                         (inner skin {:e} m)",
+                        p.id[i],
+                        p.id[j],
+                        list.inner_skin
+                    );
+                }
+            }
+        }
+        most_contacts = most_contacts.max(contacts);
+    }
+    eprintln!("up to {most_contacts} contacts, {selections} selections of the store's pairs");
+    assert!(
+        most_contacts > 100 && selections > 20,
+        "the run must settle into many contacts ({most_contacts}) and select the store's \
+         pairs many times ({selections})"
     );
 }

@@ -30,7 +30,9 @@ pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, VerletState};
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
-pub use neighbour::{ContactHistory, NeighbourSettings, Reorder, StepMotion, VerletList, WallList};
+pub use neighbour::{
+    ContactHistory, NeighbourSettings, PairList, Reorder, StepMotion, VerletList, WallList,
+};
 pub use particles::{NewParticle, Particles, PerParticle};
 pub use rotation::{Clamped, Rotation};
 pub use walls::{Wall, WallShape, Walls};

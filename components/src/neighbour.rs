@@ -26,7 +26,8 @@ pub struct NeighbourSettings {
 /// pass read the near pairs only (the pair-ordered pass of sparse chunks reads whole
 /// chunks, where a far pair just adds zero).
 /// Without narrowing, `near_end[i] = start[i + 1]`. Rows are narrowed only in scenes
-/// without a contact store ([`ContactHistory`]): narrowing reorders the pairs of a row.
+/// without a contact store ([`ContactHistory`]); with one, the store keeps its own compact
+/// list of the near pairs instead (narrowing in place would move a pair's history).
 #[derive(Resource, Debug, Clone, Default)]
 pub struct VerletList {
     pub start: Vec<u32>,
@@ -96,15 +97,19 @@ pub struct WallList {
 }
 
 /// The contact store: per-pair history (the tangential spring of a friction model, the
-/// contact state of an adhesion model) kept beside the Verlet list, `width` values per
-/// pair, in blocks of four pairs (the lanes of the contact kernel): value `c` of pair `k`
-/// is `values[index(k, c)]`, and the four pairs of a block have each value in four
-/// consecutive slots. Pairs are keyed
-/// by the particles' stable ids, so at every rebuild and re-sort the history of a pair that
-/// is still listed moves to its new place; a pair that left the list loses it. Values are
-/// kept for the pair oriented from the particle that owns the pair's row to its partner:
-/// when a rebuild gives the row to the other particle, the directed values (`directed`)
-/// are negated as they move, so the contact kernel never needs the ids.
+/// contact state of an adhesion model), `width` values per pair, for the pairs of its own
+/// compact list `pairs`: the pairs of the Verlet list within `r_i + r_j + inner_skin`
+/// (a two-level list, as the narrowed rows of [`VerletList`]) and every pair that holds
+/// history, selected again at each rebuild and narrowing. Until some particle has moved
+/// half the inner skin, no other listed pair can touch, so the contact kernel reads these
+/// pairs only. Values are in blocks of four pairs (the lanes of the contact kernel):
+/// value `c` of pair `k` is `values[index(k, c)]`, and the four pairs of a block have each
+/// value in four consecutive slots. Pairs are keyed by the particles' stable ids, so at
+/// every selection, rebuild and re-sort the history of a pair that is still listed moves
+/// to its new place; a pair that left the list loses it. Values are kept for the pair
+/// oriented from the particle that owns the pair's row to its partner: when a rebuild
+/// gives the row to the other particle, the directed values (`directed`) are negated as
+/// they move, so the contact kernel never needs the ids.
 /// Present only when a model needs it.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct ContactHistory {
@@ -113,6 +118,39 @@ pub struct ContactHistory {
     /// if any.
     pub directed: Option<usize>,
     pub values: Vec<f64>,
+    pub pairs: PairList,
+}
+
+/// A half list of pairs in compressed rows, as [`VerletList`] without narrowing: the pairs
+/// of row `i` are `k` in `start[i]..start[i+1]`, partner `neighbours[k]` (> i, ascending)
+/// and owner `owner[k]` (= i); `rev_pairs[rev_start[p]..rev_start[p+1]]` are the pairs in
+/// which `p` is the partner, ascending. `ids` are the stable ids of the rows when the list
+/// was made.
+#[derive(Debug, Clone, Default)]
+pub struct PairList {
+    pub ids: Vec<u32>,
+    pub start: Vec<u32>,
+    pub neighbours: Vec<u32>,
+    pub owner: Vec<u32>,
+    pub rev_start: Vec<u32>,
+    pub rev_pairs: Vec<u32>,
+}
+
+impl PairList {
+    /// Number of pairs.
+    pub fn pairs(&self) -> usize {
+        self.neighbours.len()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        4 * (self.ids.capacity()
+            + self.start.capacity()
+            + self.neighbours.capacity()
+            + self.owner.capacity()
+            + self.rev_start.capacity()
+            + self.rev_pairs.capacity())
+    }
 }
 
 impl ContactHistory {

@@ -11,16 +11,17 @@
 //! displacement, JKR contact flag) lives in the contact store (`ContactHistory` for
 //! pairs, `WallHistory` for walls); a contact that ends has its history reset.
 //!
-//! Two passes over the half Verlet list: every pair once, four consecutive pairs at a time
-//! in `f64x4` lanes, with its history stored in blocks of four (the force and both
-//! torques kept per pair); then, per chunk of particles, the wall contacts four wall-list
-//! entries at a time in lanes, and every particle sums its own pairs, the pairs it is
-//! partner in, and its walls, in a fixed order: the result does not depend on the thread
-//! count. The model code is written once over [`Real`].
+//! Two passes over the pairs of the contact store (`ContactHistory::pairs`: the listed
+//! pairs within an inner skin, and those holding history): every pair once, four
+//! consecutive pairs at a time in `f64x4` lanes, with its history stored in blocks of four
+//! (the force and both torques kept per pair); then, per chunk of particles, the wall
+//! contacts four wall-list entries at a time in lanes, and every particle sums its own
+//! pairs, the pairs it is partner in, and its walls, in a fixed order: the result does not
+//! depend on the thread count. The model code is written once over [`Real`].
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, Particles, Rotation, RunHealth,
-    SimClock, TangentialStiffness, VerletList, WallHistory, WallList, Walls,
+    Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, PairList, Particles, Rotation,
+    RunHealth, SimClock, TangentialStiffness, WallHistory, WallList, Walls,
 };
 use rayon::prelude::*;
 use wide::{f64x4, CmpGe, CmpGt, CmpLt};
@@ -322,7 +323,6 @@ pub fn granular_contact(
     mut unused_torque: Local<Columns>,
     mut particles: ResMut<Particles>,
     rotation: Option<ResMut<Rotation>>,
-    list: Res<VerletList>,
     materials: Res<Materials>,
     laws: Res<ContactLaws>,
     mut history: ResMut<ContactHistory>,
@@ -333,7 +333,8 @@ pub fn granular_contact(
     mut health: ResMut<RunHealth>,
 ) {
     let _span = tracing::info_span!("granular_contact").entered();
-    pair_results.resize(list.pairs().div_ceil(LANES), [[0.0; LANES]; 9]);
+    let ContactHistory { pairs, values, .. } = &mut *history;
+    pair_results.resize(pairs.pairs().div_ceil(LANES), [[0.0; LANES]; 9]);
     let walls = match (
         walls.as_deref(),
         wall_list.as_deref(),
@@ -354,7 +355,7 @@ pub fn granular_contact(
             &mut *unused_torque
         }
     };
-    let (p, l, h) = (&mut *particles, &*list, &mut history.values);
+    let (p, l, h) = (&mut *particles, &*pairs, values);
     if let Some((_, l, _)) = &walls {
         wall_results.resize(l.walls.len(), [0.0; 8]);
     }
@@ -381,7 +382,7 @@ fn gather3(cols: &[&[f64]; 3], js: &[usize; 4]) -> V3<f64x4> {
 #[allow(clippy::too_many_arguments)]
 fn both_passes<D: NormalDamping>(
     particles: &mut Particles,
-    list: &VerletList,
+    list: &PairList,
     materials: &Materials,
     laws: &ContactLaws,
     (results, wall_results, torque): (&mut [PairResults], &mut [WallResult], &mut Columns),
@@ -452,7 +453,7 @@ impl Kernel<'_> {
     fn contacts<D: NormalDamping>(
         &self,
         p: &Particles,
-        list: &VerletList,
+        list: &PairList,
         (results, wall_results): (&mut [PairResults], &mut [WallResult]),
         history: &mut [f64],
         [force, torque]: [&mut Columns; 2],
@@ -553,7 +554,7 @@ impl Kernel<'_> {
     fn block<D: NormalDamping>(
         &self,
         p: &Rows,
-        list: &VerletList,
+        list: &PairList,
         k0: usize,
         out: &mut PairResults,
         hist: &mut [f64],
@@ -649,7 +650,7 @@ impl Kernel<'_> {
     /// own pairs (the owner's share), then the pairs it is partner in (the other share).
     /// Its walls follow, in list order ([`Self::wall_contacts`]).
     #[inline(always)]
-    fn pair_sum(&self, list: &VerletList, i: usize, results: &[PairResults]) -> [f64; 6] {
+    fn pair_sum(&self, list: &PairList, i: usize, results: &[PairResults]) -> [f64; 6] {
         let mut sum = [0.0; 6];
         let own = list.start[i] as usize..list.start[i + 1] as usize;
         for k in own {

@@ -7,7 +7,8 @@
 //! neighbours are close in memory.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    ContactHistory, NeighbourSettings, Particles, PerParticle, Reorder, StepMotion, VerletList,
+    ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder, StepMotion,
+    VerletList,
 };
 use rayon::prelude::*;
 
@@ -38,13 +39,23 @@ pub fn verlet_list(
         stale = exact > half_skin;
         list.motion_bound = exact;
     }
-    // Narrowing reorders the pairs of a row: not with a per-pair contact history.
-    let narrow = history.is_none();
     if stale {
-        rebuild(&mut particles, &mut list, &settings, &mut reorder, history);
+        rebuild(&mut particles, &mut list, &settings, &mut reorder);
     }
-    if narrow {
-        narrow_when_due(&particles, &mut list, settings.skin, step_motion, stale);
+    let inner = narrowing_due(&mut list, settings.skin, step_motion, stale);
+    match (history, inner) {
+        // With a contact store, the store selects its own pairs (the rows stay whole).
+        (Some(mut history), Some(inner)) => {
+            select_history_pairs(&particles, &mut list, &mut history, inner)
+        }
+        (Some(_), None) | (None, None) => {}
+        (None, Some(inner)) if inner < settings.skin => narrow_rows(&particles, &mut list, inner),
+        (None, Some(_)) => {
+            if list.inner_skin < settings.skin {
+                let _span = tracing::info_span!("widen_rows").entered();
+                whole_rows(&mut list, settings.skin);
+            }
+        }
     }
 }
 
@@ -54,35 +65,24 @@ pub fn verlet_list(
 /// over the list, is paid for by that many cheaper contact passes.
 const STEPS_PER_NARROWING: f64 = 50.0;
 
-/// Narrow the rows (see [`VerletList::near_end`]) after a rebuild, or when some particle
-/// may have moved half the inner skin since the last narrowing; widen them again to the
-/// whole list when the particles move too fast for an inner skin below `skin` to last.
-fn narrow_when_due(
-    particles: &Particles,
-    list: &mut VerletList,
-    skin: f64,
-    step_motion: f64,
-    rebuilt: bool,
-) {
+/// The inner skin to narrow the rows to now (see [`VerletList::near_end`]; `skin`: whole
+/// rows), if a narrowing is due: after a rebuild, when some particle may have moved half
+/// the inner skin since the last narrowing, or when whole rows (after the first build,
+/// when no motion was known yet, or after fast motion) could now be narrowed to half the
+/// skin or less. The rows are whole again when the particles move too fast for an inner
+/// skin below `skin` to last.
+fn narrowing_due(list: &mut VerletList, skin: f64, step_motion: f64, rebuilt: bool) -> Option<f64> {
     list.inner_bound += step_motion;
     list.inner_steps += 1;
-    if !rebuilt && list.inner_bound <= 0.5 * list.inner_skin {
-        return;
-    }
-    let per_step = if list.inner_steps > 1 {
-        list.inner_bound / list.inner_steps as f64
-    } else {
-        step_motion
-    };
+    let per_step = list.inner_bound / list.inner_steps as f64;
     let inner = (2.0 * STEPS_PER_NARROWING * per_step).max(skin / 32.0);
-    if inner < skin {
-        narrow_rows(particles, list, inner);
-    } else if list.inner_skin < skin {
-        let _span = tracing::info_span!("widen_rows").entered();
-        whole_rows(list, skin);
+    let worth_narrowing = list.inner_skin >= skin && inner <= 0.5 * skin;
+    if !rebuilt && !worth_narrowing && list.inner_bound <= 0.5 * list.inner_skin {
+        return None;
     }
     list.inner_bound = 0.0;
     list.inner_steps = 0;
+    Some(inner.min(skin))
 }
 
 /// Order every row with its pairs within `r_i + r_j + inner_skin` first, in list order (a
@@ -176,22 +176,15 @@ fn index_near_pairs(list: &mut VerletList) {
 }
 
 /// Rebuild the list from the cell index, re-sorting the particles in cell order at every
-/// `sort_every`-th rebuild, and carry the contact history over.
+/// `sort_every`-th rebuild.
 fn rebuild(
     particles: &mut Particles,
     list: &mut VerletList,
     settings: &NeighbourSettings,
     reorder: &mut Reorder,
-    history: Option<ResMut<ContactHistory>>,
 ) {
     let n = particles.len();
     let _span = tracing::info_span!("verlet_rebuild").entered();
-    // The old list, keyed by stable ids, for carrying the contact history over.
-    let old = history.as_ref().map(|_| OldList {
-        ids: particles.id.clone(),
-        start: std::mem::take(&mut list.start),
-        neighbours: std::mem::take(&mut list.neighbours),
-    });
     let sort = settings.sort_every > 0 && list.builds.is_multiple_of(settings.sort_every as u64);
     let cell_sort = tracing::info_span!("cell_sort").entered();
     let grid = CellGrid::new(particles, settings.skin);
@@ -216,9 +209,6 @@ fn rebuild(
         settings.skin,
         list,
     );
-    if let (Some(mut history), Some(old)) = (history, old) {
-        carry_history(&mut history, &old, &particles.id, list);
-    }
     for d in 0..3 {
         list.reference[d].clone_from(&particles.position[d]);
     }
@@ -500,22 +490,129 @@ fn build_half_list(
     whole_rows(list, skin);
 }
 
-/// The list before a rebuild, with the ids of its rows.
-struct OldList {
-    ids: Vec<u32>,
-    start: Vec<u32>,
-    neighbours: Vec<u32>,
+/// Select the pairs of the contact store (see [`ContactHistory`]): the listed pairs within
+/// `r_i + r_j + inner_skin` and every listed pair that holds history, each with its
+/// history carried from the store's previous pairs; then their reverse index. While the
+/// rows hold the same particles as at the last selection, a row's previous pairs are
+/// found by a merge with its listed pairs (both ascending); after a re-sort or an
+/// insertion, by the stable ids of both particles ([`carry_history`]).
+fn select_history_pairs(
+    particles: &Particles,
+    list: &mut VerletList,
+    history: &mut ContactHistory,
+    inner_skin: f64,
+) {
+    let _span = tracing::info_span!("select_history_pairs").entered();
+    let n = particles.len();
+    let w = history.width;
+    let same_rows = history.pairs.ids == particles.id && history.pairs.start.len() == n + 1;
+    // The history to carry: the store's own values (same rows) or the values moved to
+    // the places of `list` (rows changed).
+    let carried = (!same_rows).then(|| carry_history(history, &particles.id, list));
+    let source = carried.as_deref().unwrap_or(&history.values);
+    let old = &history.pairs;
+    let [x, y, z] = &particles.position;
+    let r = &particles.radius;
+    // Per chunk of rows: the kept partners, the row lengths, and the place of each kept
+    // pair's history in `source` (u32::MAX: none).
+    let rows: Vec<(Vec<u32>, Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (mut nbrs, mut counts, mut from) = (Vec::new(), Vec::new(), Vec::new());
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let (xi, yi, zi, ri) = (x[i], y[i], z[i], r[i] + inner_skin);
+                let before = nbrs.len();
+                let mut q = if same_rows { old.start[i] as usize } else { 0 };
+                for k in list.start[i] as usize..list.start[i + 1] as usize {
+                    let j = list.neighbours[k];
+                    let place = if same_rows {
+                        let end = old.start[i + 1] as usize;
+                        while q < end && old.neighbours[q] < j {
+                            q += 1;
+                        }
+                        (q < end && old.neighbours[q] == j).then_some(q)
+                    } else {
+                        Some(k)
+                    };
+                    let held =
+                        place.filter(|&s| (0..w).any(|v| source[history.index(s, v)] != 0.0));
+                    let (dx, dy, dz) = (xi - x[j as usize], yi - y[j as usize], zi - z[j as usize]);
+                    let reach = ri + r[j as usize];
+                    if held.is_some() || dx * dx + dy * dy + dz * dz < reach * reach {
+                        nbrs.push(j);
+                        from.push(held.map_or(u32::MAX, |s| s as u32));
+                    }
+                }
+                counts.push((nbrs.len() - before) as u32);
+            }
+            (nbrs, counts, from)
+        })
+        .collect();
+    let total: usize = rows.iter().map(|(nbrs, _, _)| nbrs.len()).sum();
+    let mut pairs = PairList {
+        ids: particles.id.clone(),
+        ..Default::default()
+    };
+    pairs.start.reserve_exact(n + 1);
+    pairs.start.push(0);
+    pairs.neighbours.reserve_exact(total);
+    pairs.owner.reserve_exact(total);
+    let mut from = Vec::with_capacity(total);
+    let mut i = 0u32;
+    for (nbrs, counts, f) in &rows {
+        for &count in counts {
+            pairs.owner.extend(std::iter::repeat_n(i, count as usize));
+            pairs.start.push(pairs.owner.len() as u32);
+            i += 1;
+        }
+        pairs.neighbours.extend_from_slice(nbrs);
+        from.extend_from_slice(f);
+    }
+    let mut values = vec![0.0; history.len_for(total)];
+    values
+        .par_chunks_mut(CHUNK * w.max(1))
+        .enumerate()
+        .for_each(|(c, out)| {
+            for q in c * CHUNK..((c + 1) * CHUNK).min(total) {
+                if from[q] != u32::MAX {
+                    for v in 0..w {
+                        out[history.index(q, v) - c * CHUNK * w] =
+                            source[history.index(from[q] as usize, v)];
+                    }
+                }
+            }
+        });
+    pairs.rev_start = vec![0; n + 1];
+    for &j in &pairs.neighbours {
+        pairs.rev_start[j as usize + 1] += 1;
+    }
+    for p in 0..n {
+        pairs.rev_start[p + 1] += pairs.rev_start[p];
+    }
+    let mut fill = pairs.rev_start.clone();
+    pairs.rev_pairs = vec![0; pairs.neighbours.len()];
+    for (q, &j) in pairs.neighbours.iter().enumerate() {
+        pairs.rev_pairs[fill[j as usize] as usize] = q as u32;
+        fill[j as usize] += 1;
+    }
+    history.pairs = pairs;
+    history.values = values;
+    list.inner_skin = inner_skin;
+    list.narrowings += 1;
 }
 
-/// Move each pair's history from its old place to its new one (matched by the ids of both
-/// particles: in the old list the pair sat in the row of its lower old row index); the
-/// directed values are negated when the pair's row owner changes; new pairs start from
-/// zero.
-fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list: &VerletList) {
+/// The history of the store's pairs moved to the pairs of `list` (in blocks of four, as
+/// [`ContactHistory::values`]), matched by the ids of both particles (in the store's
+/// list the pair sat in the row of its lower row index); the directed values are negated
+/// when the pair's row owner changed; other pairs get zero.
+fn carry_history(history: &ContactHistory, ids: &[u32], list: &VerletList) -> Vec<f64> {
+    let _span = tracing::info_span!("carry_history").entered();
     let w = history.width;
-    if w == 0 {
-        history.values.clear();
-        return;
+    let pairs = list.neighbours.len();
+    let mut values = vec![0.0; history.len_for(pairs)];
+    let old = &history.pairs;
+    if w == 0 || old.pairs() == 0 {
+        return values;
     }
     let max_id = ids
         .iter()
@@ -527,10 +624,6 @@ fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list:
     for (row, &id) in old.ids.iter().enumerate() {
         old_row[id as usize] = row as u32;
     }
-    let old_values = std::mem::take(&mut history.values);
-    let pairs = list.neighbours.len();
-    let mut values = vec![0.0; history.len_for(pairs)];
-    let store = &*history;
     // CHUNK pairs per work item: a whole number of blocks.
     values
         .par_chunks_mut(CHUNK * w)
@@ -551,13 +644,13 @@ fn carry_history(history: &mut ContactHistory, old: &OldList, ids: &[u32], list:
                     // the old owner (row lo) owns the new row too, or the partner does
                     let turned = a as usize != lo;
                     for v in 0..w {
-                        let value = old_values[store.index(src, v)];
-                        let directed = store.directed.is_some_and(|o| (o..o + 3).contains(&v));
-                        out[store.index(k, v) - c * CHUNK * w] =
+                        let value = history.values[history.index(src, v)];
+                        let directed = history.directed.is_some_and(|o| (o..o + 3).contains(&v));
+                        out[history.index(k, v) - c * CHUNK * w] =
                             if turned && directed { -value } else { value };
                     }
                 }
             }
         });
-    history.values = values;
+    values
 }
