@@ -148,31 +148,57 @@ fn whole_rows(list: &mut VerletList, skin: f64) {
 /// partner, ascending pair index within each partner.
 fn index_near_pairs(list: &mut VerletList) {
     let n = list.near_end.len();
-    list.rev_start.clear();
-    list.rev_start.resize(n + 1, 0);
-    for i in 0..n {
-        for &j in &list.neighbours[list.start[i] as usize..list.near_end[i] as usize] {
-            list.rev_start[j as usize + 1] += 1;
-        }
+    let near = (0..n).flat_map(|i| list.start[i]..list.near_end[i]);
+    let (rev_start, rev_pairs) = reverse_index(n, near.map(|k| (k, list.neighbours[k as usize])));
+    list.rev_owner = rev_pairs.iter().map(|&k| list.owner[k as usize]).collect();
+    list.rev_start = rev_start;
+    list.rev_pairs = rev_pairs;
+}
+
+/// A reverse index by partner (a counting sort): for pairs `(k, j)`, pair `k` with
+/// partner `j < n`, given in ascending `k`, `rev_pairs[rev_start[j]..rev_start[j + 1]]`
+/// are the pairs of partner `j`, ascending.
+fn reverse_index(
+    n: usize,
+    pairs: impl Iterator<Item = (u32, u32)> + Clone,
+) -> (Vec<u32>, Vec<u32>) {
+    let mut rev_start = vec![0u32; n + 1];
+    for (_, j) in pairs.clone() {
+        rev_start[j as usize + 1] += 1;
     }
     for p in 0..n {
-        list.rev_start[p + 1] += list.rev_start[p];
+        rev_start[p + 1] += rev_start[p];
     }
-    let near = list.rev_start[n] as usize;
-    let mut fill = list.rev_start.clone();
-    list.rev_pairs.clear();
-    list.rev_pairs.resize(near, 0);
-    list.rev_owner.clear();
-    list.rev_owner.resize(near, 0);
-    for i in 0..n {
-        for k in list.start[i] as usize..list.near_end[i] as usize {
-            let j = list.neighbours[k] as usize;
-            let slot = fill[j] as usize;
-            list.rev_pairs[slot] = k as u32;
-            list.rev_owner[slot] = i as u32;
-            fill[j] += 1;
+    let mut fill = rev_start.clone();
+    let mut rev_pairs = vec![0; rev_start[n] as usize];
+    for (k, j) in pairs {
+        rev_pairs[fill[j as usize] as usize] = k;
+        fill[j as usize] += 1;
+    }
+    (rev_start, rev_pairs)
+}
+
+/// Chunks of consecutive rows (each chunk's partners in row order, and its rows' lengths)
+/// joined into compressed rows: row starts, owners and partners, allocated at their exact
+/// sizes (no growth by doubling: the lists are most of the memory per particle beside the
+/// particle state).
+fn join_rows<'a>(
+    chunks: impl Iterator<Item = (&'a [u32], &'a [u32])> + Clone,
+) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+    let rows: usize = chunks.clone().map(|(_, counts)| counts.len()).sum();
+    let pairs: usize = chunks.clone().map(|(nbrs, _)| nbrs.len()).sum();
+    let mut start = Vec::with_capacity(rows + 1);
+    let mut owner = Vec::with_capacity(pairs);
+    let mut neighbours = Vec::with_capacity(pairs);
+    start.push(0);
+    for (nbrs, counts) in chunks {
+        for &c in counts {
+            owner.extend(std::iter::repeat_n(start.len() as u32 - 1, c as usize));
+            start.push(owner.len() as u32);
         }
+        neighbours.extend_from_slice(nbrs);
     }
+    (start, owner, neighbours)
 }
 
 /// Rebuild the list from the cell index, re-sorting the particles in cell order at every
@@ -466,27 +492,8 @@ fn build_half_list(
         .collect();
     drop(scan);
     let _span = tracing::info_span!("list_index").entered();
-    list.start.clear();
-    list.start.reserve(n + 1);
-    list.start.push(0);
-    list.neighbours.clear();
-    list.owner.clear();
-    // Exact capacities (no growth by doubling): the list is most of the memory per
-    // particle beside the particle state.
-    let pairs: usize = rows.iter().map(|(nbrs, _)| nbrs.len()).sum();
-    list.neighbours.reserve_exact(pairs);
-    list.owner.reserve_exact(pairs);
-    let mut total = 0u32;
-    let mut i = 0u32;
-    for (nbrs, counts) in &rows {
-        for &c in counts {
-            total += c;
-            list.start.push(total);
-            list.owner.extend(std::iter::repeat_n(i, c as usize));
-            i += 1;
-        }
-        list.neighbours.extend_from_slice(nbrs);
-    }
+    (list.start, list.owner, list.neighbours) =
+        join_rows(rows.iter().map(|(nbrs, counts)| (&nbrs[..], &counts[..])));
     whole_rows(list, skin);
 }
 
@@ -505,7 +512,7 @@ fn select_history_pairs(
     let _span = tracing::info_span!("select_history_pairs").entered();
     let n = particles.len();
     let w = history.width;
-    let same_rows = history.pairs.ids == particles.id && history.pairs.start.len() == n + 1;
+    let same_rows = history.pairs.ids == particles.id;
     // The history to carry: the store's own values (same rows) or the values moved to
     // the places of `list` (rows changed).
     let carried = (!same_rows).then(|| carry_history(history, &particles.id, list));
@@ -548,26 +555,15 @@ fn select_history_pairs(
             (nbrs, counts, from)
         })
         .collect();
-    let total: usize = rows.iter().map(|(nbrs, _, _)| nbrs.len()).sum();
-    let mut pairs = PairList {
-        ids: particles.id.clone(),
-        ..Default::default()
-    };
-    pairs.start.reserve_exact(n + 1);
-    pairs.start.push(0);
-    pairs.neighbours.reserve_exact(total);
-    pairs.owner.reserve_exact(total);
-    let mut from = Vec::with_capacity(total);
-    let mut i = 0u32;
-    for (nbrs, counts, f) in &rows {
-        for &count in counts {
-            pairs.owner.extend(std::iter::repeat_n(i, count as usize));
-            pairs.start.push(pairs.owner.len() as u32);
-            i += 1;
-        }
-        pairs.neighbours.extend_from_slice(nbrs);
-        from.extend_from_slice(f);
-    }
+    let (start, owner, neighbours) = join_rows(
+        rows.iter()
+            .map(|(nbrs, counts, _)| (&nbrs[..], &counts[..])),
+    );
+    let from: Vec<u32> = rows
+        .iter()
+        .flat_map(|(_, _, f)| f.iter().copied())
+        .collect();
+    let total = neighbours.len();
     let mut values = vec![0.0; history.len_for(total)];
     values
         .par_chunks_mut(CHUNK * w.max(1))
@@ -582,19 +578,16 @@ fn select_history_pairs(
                 }
             }
         });
-    pairs.rev_start = vec![0; n + 1];
-    for &j in &pairs.neighbours {
-        pairs.rev_start[j as usize + 1] += 1;
-    }
-    for p in 0..n {
-        pairs.rev_start[p + 1] += pairs.rev_start[p];
-    }
-    let mut fill = pairs.rev_start.clone();
-    pairs.rev_pairs = vec![0; pairs.neighbours.len()];
-    for (q, &j) in pairs.neighbours.iter().enumerate() {
-        pairs.rev_pairs[fill[j as usize] as usize] = q as u32;
-        fill[j as usize] += 1;
-    }
+    let (rev_start, rev_pairs) =
+        reverse_index(n, (0..total as u32).zip(neighbours.iter().copied()));
+    let pairs = PairList {
+        ids: particles.id.clone(),
+        start,
+        neighbours,
+        owner,
+        rev_start,
+        rev_pairs,
+    };
     history.pairs = pairs;
     history.values = values;
     list.inner_skin = inner_skin;
