@@ -6,7 +6,8 @@ use std::path::Path;
 
 use grainflow::run::Simulation;
 use grainflow::scene;
-use grainflow_components::{ContactHistory, Particles, VerletList};
+use grainflow_components::{ContactHistory, PairList, Particles, VerletList};
+use grainflow_systems::neighbour_list::scatter_plan;
 
 const SCENE: &str = r#"
 [simulation]
@@ -123,11 +124,55 @@ fn pair_history_follows_the_pair_through_rebuilds_and_resorting() {
     );
 }
 
+/// The scatter plan of the store's pairs (`ScatterPlan`) against the pairs: every pair's
+/// two slots hold its owner and its partner in the pair's own work item; every slot of an
+/// item holds a particle of its pairs, each once, ascending; every particle's records are
+/// exactly its slots, in item order. A slot or record missing or doubled would lose or
+/// double a force.
+fn check_scatter_plan(store: &PairList, n: usize) {
+    let plan = &store.scatter;
+    let per_item = plan.pairs_per_item;
+    assert!(per_item > 0 && per_item % 4 == 0, "items of whole blocks");
+    let items = store.pairs().div_ceil(per_item);
+    assert_eq!(plan.item_start.len(), items + 1, "slot ranges of the items");
+    assert_eq!(plan.pair_slot.len(), store.pairs(), "two slots per pair");
+    let mut records = vec![Vec::new(); n];
+    for g in 0..items {
+        let slots = plan.item_start[g] as usize..plan.item_start[g + 1] as usize;
+        let held = &plan.particle[slots.clone()];
+        assert!(
+            held.windows(2).all(|w| w[0] < w[1]),
+            "item {g}: slots ascending"
+        );
+        let pairs = g * per_item..((g + 1) * per_item).min(store.pairs());
+        let mut used = vec![false; held.len()];
+        for k in pairs {
+            let [so, sp] = plan.pair_slot[k].map(usize::from);
+            assert_eq!(held[so], store.owner[k], "pair {k}: owner slot");
+            assert_eq!(held[sp], store.neighbours[k], "pair {k}: partner slot");
+            used[so] = true;
+            used[sp] = true;
+        }
+        assert!(
+            used.iter().all(|&u| u),
+            "item {g}: every slot is a particle of its pairs"
+        );
+        for (s, &p) in slots.zip(held) {
+            records[p as usize].push(s as u32);
+        }
+    }
+    assert_eq!(plan.gather_start.len(), n + 1, "records of every particle");
+    for (i, want) in records.iter().enumerate() {
+        let got = &plan.gather[plan.gather_start[i] as usize..plan.gather_start[i + 1] as usize];
+        assert_eq!(got, &want[..], "records of particle {i}");
+    }
+}
+
 /// The store keeps its own compact list of pairs (a two-level Verlet list): the listed
 /// pairs within r_i + r_j + inner skin and every pair that holds history. Checked at
 /// every step of a block settling with friction against a brute-force search: every pair
 /// in contact is among the store's pairs (else its spring would be lost), every pair of
-/// the store is listed, and the rows and reverse index agree.
+/// the store is listed, and the scatter plan of the kernel's sums fits the pairs.
 #[test]
 fn store_pairs_hold_every_contact_while_a_block_settles() {
     let path = Path::new("contact-store-friction.toml");
@@ -136,7 +181,7 @@ fn store_pairs_hold_every_contact_while_a_block_settles() {
     let mut sim = Simulation::new(scene, path, None).expect("world");
     sim.start();
     let (mut most_contacts, mut selections) = (0, 0);
-    for _ in 0..3000 {
+    for step in 0..3000 {
         sim.step();
         assert!(sim.failure().is_none(), "{:?}", sim.failure());
         let p = sim.world.resource::<Particles>();
@@ -155,17 +200,16 @@ fn store_pairs_hold_every_contact_while_a_block_settles() {
                 assert_eq!(store.owner[k as usize] as usize, i, "owner of pair {k}");
                 assert!(listed.contains(&j), "store pair ({i}, {j}) is not listed");
             }
-            let rev =
-                &store.rev_pairs[store.rev_start[i] as usize..store.rev_start[i + 1] as usize];
-            assert!(
-                rev.windows(2).all(|w| w[0] < w[1]),
-                "reverse index of {i} ascending"
-            );
-            assert!(
-                rev.iter()
-                    .all(|&k| store.neighbours[k as usize] as usize == i),
-                "reverse index of particle {i}"
-            );
+        }
+        check_scatter_plan(store, n);
+        if step % 50 == 0 {
+            // Items of two blocks: pairs of one particle spread over many items.
+            let scatter = scatter_plan(n, &store.owner, &store.neighbours, 8);
+            let small = PairList {
+                scatter,
+                ..store.clone()
+            };
+            check_scatter_plan(&small, n);
         }
         let [x, y, z] = &p.position;
         let mut contacts = 0;

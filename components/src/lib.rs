@@ -31,7 +31,8 @@ pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, VerletState};
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
 pub use neighbour::{
-    ContactHistory, NeighbourSettings, PairList, Reorder, StepMotion, VerletList, WallList,
+    ContactHistory, NeighbourSettings, PairList, Reorder, ScatterPlan, StepMotion, VerletList,
+    WallList,
 };
 pub use particles::{NewParticle, Particles, PerParticle};
 pub use rotation::{Clamped, Rotation};

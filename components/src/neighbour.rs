@@ -123,17 +123,38 @@ pub struct ContactHistory {
 
 /// A half list of pairs in compressed rows, as [`VerletList`] without narrowing: the pairs
 /// of row `i` are `k` in `start[i]..start[i+1]`, partner `neighbours[k]` (> i, ascending)
-/// and owner `owner[k]` (= i); `rev_pairs[rev_start[p]..rev_start[p+1]]` are the pairs in
-/// which `p` is the partner, ascending. `ids` are the stable ids of the rows when the list
-/// was made.
+/// and owner `owner[k]` (= i). `ids` are the stable ids of the rows when the list was
+/// made; `scatter` says where the contact kernel adds each pair's force and torques.
 #[derive(Debug, Clone, Default)]
 pub struct PairList {
     pub ids: Vec<u32>,
     pub start: Vec<u32>,
     pub neighbours: Vec<u32>,
     pub owner: Vec<u32>,
-    pub rev_start: Vec<u32>,
-    pub rev_pairs: Vec<u32>,
+    pub scatter: ScatterPlan,
+}
+
+/// Where the contact kernel sums the pairs of a [`PairList`]: the pairs are split into
+/// work items of `pairs_per_item` consecutive pairs (a whole number of blocks of four);
+/// each item adds the force and torque of each of its pairs to both particles' records in
+/// an accumulator of its own, one record per particle it touches (its slots); each
+/// particle then sums its records over the items, in item order. So every pair force is
+/// computed once, nothing is written per pair, and every particle's sum has a fixed order
+/// (items, then pairs within an item), whatever the number of threads.
+///
+/// The slots of item `g` are `item_start[g]..item_start[g+1]`, with particle
+/// `particle[s]` at slot `s`, ascending within the item. Pair `k` of item `g` adds to its
+/// owner at slot `item_start[g] + pair_slot[k][0]` and to its partner at
+/// `item_start[g] + pair_slot[k][1]`. Particle `p` has its records at the slots
+/// `gather[gather_start[p]..gather_start[p+1]]`, ascending.
+#[derive(Debug, Clone, Default)]
+pub struct ScatterPlan {
+    pub pairs_per_item: usize,
+    pub item_start: Vec<u32>,
+    pub particle: Vec<u32>,
+    pub pair_slot: Vec<[u16; 2]>,
+    pub gather_start: Vec<u32>,
+    pub gather: Vec<u32>,
 }
 
 impl PairList {
@@ -144,12 +165,23 @@ impl PairList {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
+        let s = &self.scatter;
         4 * (self.ids.capacity()
             + self.start.capacity()
             + self.neighbours.capacity()
             + self.owner.capacity()
-            + self.rev_start.capacity()
-            + self.rev_pairs.capacity())
+            + s.item_start.capacity()
+            + s.particle.capacity()
+            + s.pair_slot.capacity()
+            + s.gather_start.capacity()
+            + s.gather.capacity())
+    }
+}
+
+impl ScatterPlan {
+    /// Number of slots (records of all items).
+    pub fn slots(&self) -> usize {
+        self.particle.len()
     }
 }
 

@@ -21,7 +21,7 @@
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, PairList, Particles, Rotation,
-    RunHealth, SimClock, TangentialStiffness, WallHistory, WallList, Walls,
+    RunHealth, ScatterPlan, SimClock, TangentialStiffness, WallHistory, WallList, Walls,
 };
 use rayon::prelude::*;
 use wide::{f64x4, CmpGe, CmpGt, CmpLt};
@@ -294,10 +294,10 @@ impl<T: Real> History<T> {
     }
 }
 
-/// Per block of four pairs, each value in four lanes: force on the owner (3), torque on
-/// the owner (3), torque on the partner (3). Written as nine four-wide stores (a record
-/// per pair took a transpose and 36 scalar stores per block: 23 % of the pair pass).
-type PairResults = [[f64; LANES]; 9];
+/// One particle's sum over the pairs of one work item of the pair pass (its slot of the
+/// [`grainflow_components::ScatterPlan`]): force (3) and torque (3), and two lanes of
+/// padding, so that a record is one cache line.
+type SlotRecord = [f64; 8];
 
 /// Per wall-list entry: force (3) and torque (3) on the particle, overlap, and 1 if the
 /// contact acts (0: apart, nothing to add).
@@ -318,7 +318,7 @@ const LANES: usize = ContactHistory::LANES;
 
 #[allow(clippy::too_many_arguments)]
 pub fn granular_contact(
-    mut pair_results: Local<Vec<PairResults>>,
+    mut slot_sums: Local<Vec<SlotRecord>>,
     mut wall_results: Local<Vec<WallResult>>,
     mut unused_torque: Local<Columns>,
     mut particles: ResMut<Particles>,
@@ -334,7 +334,7 @@ pub fn granular_contact(
 ) {
     let _span = tracing::info_span!("granular_contact").entered();
     let ContactHistory { pairs, values, .. } = &mut *history;
-    pair_results.resize(pairs.pairs().div_ceil(LANES), [[0.0; LANES]; 9]);
+    slot_sums.resize(pairs.scatter.slots(), [0.0; 8]);
     let walls = match (
         walls.as_deref(),
         wall_list.as_deref(),
@@ -359,7 +359,7 @@ pub fn granular_contact(
     if let Some((_, l, _)) = &walls {
         wall_results.resize(l.walls.len(), [0.0; 8]);
     }
-    let buffers = (&mut pair_results[..], &mut wall_results[..], torque);
+    let buffers = (&mut slot_sums[..], &mut wall_results[..], torque);
     let worst = if restitution {
         both_passes::<RestitutionDamping>(p, l, &materials, &laws, buffers, h, walls, clock.dt)
     } else {
@@ -385,7 +385,7 @@ fn both_passes<D: NormalDamping>(
     list: &PairList,
     materials: &Materials,
     laws: &ContactLaws,
-    (results, wall_results, torque): (&mut [PairResults], &mut [WallResult], &mut Columns),
+    (sums, wall_results, torque): (&mut [SlotRecord], &mut [WallResult], &mut Columns),
     history: &mut [f64],
     walls: Option<(&Walls, &WallList, &mut WallHistory)>,
     dt: f64,
@@ -405,13 +405,44 @@ fn both_passes<D: NormalDamping>(
     let worst = kernel.contacts::<D>(
         particles,
         list,
-        (results, wall_results),
+        (sums, wall_results),
         history,
         [&mut force, torque],
         walls,
     );
     particles.force = force;
     worst
+}
+
+/// The force and torque on particle `i` from its pairs: its records over the work items
+/// of the pair pass, in item order. Its walls follow, in list order
+/// ([`Kernel::wall_contacts`]).
+#[inline(always)]
+fn pair_sum(plan: &ScatterPlan, i: usize, sums: &[SlotRecord]) -> [f64; 6] {
+    let mut sum = [0.0; 6];
+    let records = plan.gather_start[i] as usize..plan.gather_start[i + 1] as usize;
+    for &s in &plan.gather[records] {
+        let r = &sums[s as usize];
+        for d in 0..6 {
+            sum[d] += r[d];
+        }
+    }
+    sum
+}
+
+/// The records of every work item of the pair pass (`item_start`: the slots of each).
+fn item_records<'a>(
+    mut sums: &'a mut [SlotRecord],
+    item_start: &[u32],
+) -> Vec<&'a mut [SlotRecord]> {
+    item_start
+        .windows(2)
+        .map(|w| {
+            let (head, tail) = std::mem::take(&mut sums).split_at_mut((w[1] - w[0]) as usize);
+            sums = tail;
+            head
+        })
+        .collect()
 }
 
 /// Per-entry `values` of the wall list (`width` per entry; `start` its row starts) split
@@ -446,39 +477,39 @@ impl Kernel<'_> {
     }
 
     /// Pass 1: every listed pair, in blocks of four consecutive pairs ([`Self::block`]),
-    /// `CHUNK` pairs per work item. Pass 2, `CHUNK` particles per work item: their wall
-    /// contacts ([`Self::wall_contacts`]), then every particle sums its pairs
-    /// ([`Self::pair_sum`]) and its walls in a fixed order: the result does not depend on
-    /// the thread count.
+    /// in the work items of the list's [`grainflow_components::ScatterPlan`]: each item
+    /// adds its pairs' forces and torques to the records of its own slots. Pass 2, `CHUNK`
+    /// particles per work item: their wall contacts ([`Self::wall_contacts`]), then every
+    /// particle sums its records ([`Self::pair_sum`]) and its walls in a fixed order: the
+    /// result does not depend on the thread count.
     fn contacts<D: NormalDamping>(
         &self,
         p: &Particles,
         list: &PairList,
-        (results, wall_results): (&mut [PairResults], &mut [WallResult]),
+        (sums, wall_results): (&mut [SlotRecord], &mut [WallResult]),
         history: &mut [f64],
         [force, torque]: [&mut Columns; 2],
         mut walls: Option<(&Walls, &WallList, &mut WallHistory)>,
     ) -> (f64, u32) {
         let n = p.len();
         let width = self.layout.width;
+        let plan = &list.scatter;
         let pairs_worst = {
             let _span = tracing::info_span!("pair_contacts").entered();
+            let per_item = plan.pairs_per_item.max(LANES);
             (
-                results.par_chunks_mut(CHUNK / LANES),
-                history.par_chunks_mut(CHUNK * width),
+                item_records(sums, &plan.item_start),
+                history.par_chunks_mut(per_item * width).collect::<Vec<_>>(),
             )
                 .into_par_iter()
                 .enumerate()
-                .map(|(c, (results, history))| {
+                .map(|(c, (records, history))| {
                     let rows = Rows::of(p);
+                    records.fill([0.0; 8]);
                     let mut worst = (0.0f64, u32::MAX);
-                    for (b, (out, hist)) in results
-                        .iter_mut()
-                        .zip(history.chunks_mut(LANES * width))
-                        .enumerate()
-                    {
-                        let k0 = c * CHUNK + b * LANES;
-                        self.block::<D>(&rows, list, k0, out, hist, &mut worst);
+                    for (b, hist) in history.chunks_mut(LANES * width).enumerate() {
+                        let k0 = c * per_item + b * LANES;
+                        self.block::<D>(&rows, list, k0, records, hist, &mut worst);
                     }
                     worst
                 })
@@ -488,7 +519,7 @@ impl Kernel<'_> {
         let wall_set = walls.as_ref().map(|(w, l, _)| (*w, *l));
         let [fx, fy, fz] = force;
         let [tx, ty, tz] = torque;
-        let results = &*results;
+        let sums = &*sums;
         let sums_worst = (
             (
                 fx.par_chunks_mut(CHUNK),
@@ -521,7 +552,7 @@ impl Kernel<'_> {
                     _ => None,
                 };
                 for (k, i) in rows.enumerate() {
-                    let mut sum = self.pair_sum(list, i, results);
+                    let mut sum = pair_sum(plan, i, sums);
                     if let Some((wl, out)) = walls {
                         let entries = wl.start[i] as usize..wl.start[i + 1] as usize;
                         let local = entries.start - wl.start[base] as usize;
@@ -548,15 +579,17 @@ impl Kernel<'_> {
     }
 
     /// One block of four consecutive pairs from pair `k0` (one per lane, whatever their
-    /// rows), with its history block: writes the pairs' results and history, and records
-    /// the largest overlap over the smaller radius, with the id of the pair's row owner.
+    /// rows), with its history block: adds the pairs' forces and torques to the records
+    /// of their particles' slots in `records` (the slots of the block's work item),
+    /// writes the history, and records the largest overlap over the smaller radius, with
+    /// the id of the pair's row owner.
     #[inline(always)]
     fn block<D: NormalDamping>(
         &self,
         p: &Rows,
         list: &PairList,
         k0: usize,
-        out: &mut PairResults,
+        records: &mut [SlotRecord],
         hist: &mut [f64],
         worst: &mut (f64, u32),
     ) {
@@ -587,7 +620,6 @@ impl Kernel<'_> {
         let mut h = History::<f64x4>::load(self.layout, component);
         let live = (d2.cmp_lt(reach * reach) | h.bond.cmp_gt(zero)) & lane_mask[valid - 1];
         if live.none() {
-            *out = [[0.0; LANES]; 9];
             hist.fill(0.0);
             return;
         }
@@ -627,11 +659,23 @@ impl Kernel<'_> {
         let roll = e.rolling.cross(nrm).scale(geometry.r_eff);
         let owner = roll - arm.scale(ri);
         let partner = -(arm.scale(rj) + roll);
-        *out = [
-            e.force.x, e.force.y, e.force.z, owner.x, owner.y, owner.z, partner.x, partner.y,
-            partner.z,
+        let shares = [
+            e.force.x, e.force.y, e.force.z, owner.x, owner.y, owner.z, -e.force.x, -e.force.y,
+            -e.force.z, partner.x, partner.y, partner.z,
         ]
         .map(|v| v.to_array());
+        let slots = &list.scatter.pair_slot[k0..k0 + valid];
+        // Lanes out of contact add zeros (the sums do not change); masked lanes nothing.
+        for (l, [so, sp]) in slots.iter().enumerate() {
+            let r = &mut records[*so as usize];
+            for d in 0..6 {
+                r[d] += shares[d][l];
+            }
+            let r = &mut records[*sp as usize];
+            for d in 0..6 {
+                r[d] += shares[6 + d][l];
+            }
+        }
         let overlap = e.touching & geometry.delta.cmp_gt(zero) & lane_mask[valid - 1];
         let ratio = overlap.blend(geometry.delta / ri.min(rj), zero);
         // Most blocks hold no overlap as deep as the chunk's deepest so far.
@@ -644,30 +688,6 @@ impl Kernel<'_> {
                 *worst = deeper(*worst, (x, p.id[is[l]]));
             }
         }
-    }
-
-    /// The force and torque on particle i from its pairs, summed in a fixed order: its
-    /// own pairs (the owner's share), then the pairs it is partner in (the other share).
-    /// Its walls follow, in list order ([`Self::wall_contacts`]).
-    #[inline(always)]
-    fn pair_sum(&self, list: &PairList, i: usize, results: &[PairResults]) -> [f64; 6] {
-        let mut sum = [0.0; 6];
-        let own = list.start[i] as usize..list.start[i + 1] as usize;
-        for k in own {
-            let (block, lane) = (&results[k / LANES], k % LANES);
-            for (s, value) in sum.iter_mut().zip(block) {
-                *s += value[lane];
-            }
-        }
-        let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
-        for &pair in &list.rev_pairs[rev] {
-            let (block, lane) = (&results[pair as usize / LANES], pair as usize % LANES);
-            for d in 0..3 {
-                sum[d] -= block[d][lane];
-                sum[3 + d] += block[6 + d][lane];
-            }
-        }
-        sum
     }
 
     /// The wall contacts of particles `rows`, four wall-list entries at a time in lanes

@@ -7,8 +7,8 @@
 //! neighbours are close in memory.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder, StepMotion,
-    VerletList,
+    ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder, ScatterPlan,
+    StepMotion, VerletList,
 };
 use rayon::prelude::*;
 
@@ -578,20 +578,81 @@ fn select_history_pairs(
                 }
             }
         });
-    let (rev_start, rev_pairs) =
-        reverse_index(n, (0..total as u32).zip(neighbours.iter().copied()));
+    let scatter = scatter_plan(n, &owner, &neighbours, CHUNK);
     let pairs = PairList {
         ids: particles.id.clone(),
         start,
         neighbours,
         owner,
-        rev_start,
-        rev_pairs,
+        scatter,
     };
     history.pairs = pairs;
     history.values = values;
     list.inner_skin = inner_skin;
     list.narrowings += 1;
+}
+
+/// The [`ScatterPlan`] of pairs `(owner[k], neighbours[k])` among `n` particles, in work
+/// items of `pairs_per_item` pairs: each item's slots are the distinct particles of its
+/// pairs, ascending; the records of each particle are indexed by a counting sort.
+pub fn scatter_plan(
+    n: usize,
+    owner: &[u32],
+    neighbours: &[u32],
+    pairs_per_item: usize,
+) -> ScatterPlan {
+    let _span = tracing::info_span!("scatter_plan").entered();
+    assert!(
+        pairs_per_item.is_multiple_of(ContactHistory::LANES) && 2 * pairs_per_item <= 1 << 16,
+        "an item is whole blocks with 16-bit slots"
+    );
+    let items: Vec<(Vec<u32>, Vec<[u16; 2]>)> = owner
+        .par_chunks(pairs_per_item)
+        .zip(neighbours.par_chunks(pairs_per_item))
+        .map(|(own, nbrs)| {
+            // Every (particle, place) of the item, sorted: runs of one particle get one
+            // slot. Place 2q is the owner of the item's pair q, 2q + 1 its partner.
+            let mut keys: Vec<u64> = (own.iter().zip(nbrs))
+                .enumerate()
+                .flat_map(|(q, (&i, &j))| {
+                    let q = 2 * q as u64;
+                    [(i as u64) << 32 | q, (j as u64) << 32 | (q + 1)]
+                })
+                .collect();
+            keys.sort_unstable();
+            let mut touched: Vec<u32> = Vec::new();
+            let mut slots = vec![[0u16; 2]; own.len()];
+            for key in keys {
+                let particle = (key >> 32) as u32;
+                if touched.last() != Some(&particle) {
+                    touched.push(particle);
+                }
+                let place = key as u32 as usize;
+                slots[place / 2][place % 2] = (touched.len() - 1) as u16;
+            }
+            (touched, slots)
+        })
+        .collect();
+    let mut item_start = Vec::with_capacity(items.len() + 1);
+    item_start.push(0u32);
+    for (touched, _) in &items {
+        item_start.push(item_start[item_start.len() - 1] + touched.len() as u32);
+    }
+    let mut particle = Vec::with_capacity(item_start[items.len()] as usize);
+    let mut pair_slot = Vec::with_capacity(owner.len());
+    for (touched, slots) in &items {
+        particle.extend_from_slice(touched);
+        pair_slot.extend_from_slice(slots);
+    }
+    let (gather_start, gather) = reverse_index(n, (0..).zip(particle.iter().copied()));
+    ScatterPlan {
+        pairs_per_item,
+        item_start,
+        particle,
+        pair_slot,
+        gather_start,
+        gather,
+    }
 }
 
 /// The history of the store's pairs moved to the pairs of `list` (in blocks of four, as
