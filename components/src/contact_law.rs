@@ -52,12 +52,15 @@ pub struct ContactLaw {
 }
 
 /// Where each model keeps its per-contact history in a row of [`crate::ContactHistory`]
-/// (and of [`WallHistory`]): the tangential spring g and the sliding flag (3 + 1 values),
-/// the rolling displacement (3 values), the JKR contact flag (1 value: 1 while the
-/// contact holds).
+/// (and of [`WallHistory`]): the tangential spring g (3 values), the sliding flag (1
+/// value, 1 while the contact slides; kept only when some pair's dynamic friction
+/// coefficient differs from its static one, since with mu_d = mu_s the flag changes no
+/// force), the rolling displacement (3 values), the JKR contact flag (1 value: 1 while
+/// the contact holds).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct HistoryLayout {
     pub spring: Option<usize>,
+    pub sliding: Option<usize>,
     pub rolling: Option<usize>,
     pub bond: Option<usize>,
     pub width: usize,
@@ -73,11 +76,17 @@ impl HistoryLayout {
                 layout.width - n
             })
         };
-        let spring = take(laws.iter().any(|l| l.friction.is_some()), 4);
+        let spring = take(laws.iter().any(|l| l.friction.is_some()), 3);
+        let two_coefficients = laws.iter().any(|l| {
+            l.friction
+                .is_some_and(|f| f.dynamic_coefficient != f.static_coefficient)
+        });
+        let sliding = take(two_coefficients, 1);
         let rolling = take(laws.iter().any(|l| l.rolling.is_some()), 3);
         let bond = take(laws.iter().any(|l| l.adhesion.is_some()), 1);
         Self {
             spring,
+            sliding,
             rolling,
             bond,
             width: layout.width,
@@ -119,4 +128,45 @@ pub struct WallHistory {
     pub start: Vec<u32>,
     pub walls: Vec<u16>,
     pub built_for: Option<u64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn friction(static_coefficient: f64, dynamic_coefficient: f64) -> ContactLaw {
+        ContactLaw {
+            friction: Some(FrictionLaw {
+                static_coefficient,
+                dynamic_coefficient,
+                stiffness: TangentialStiffness::Constant(1.0),
+                damping: 0.0,
+            }),
+            ..Default::default()
+        }
+    }
+
+    /// The sliding flag only changes a force when mu_d differs from mu_s: it is kept then
+    /// (after the spring), and not otherwise; the other models follow in order.
+    #[test]
+    fn sliding_flag_only_with_two_friction_coefficients() {
+        let rolling = ContactLaw {
+            rolling: Some(RollingLaw {
+                coefficient: 0.1,
+                stiffness: None,
+                damping: 0.0,
+            }),
+            ..friction(0.5, 0.5)
+        };
+        let one = HistoryLayout::for_laws(&[rolling]);
+        assert_eq!(
+            (one.spring, one.sliding, one.rolling, one.width),
+            (Some(0), None, Some(3), 6)
+        );
+        let two = HistoryLayout::for_laws(&[rolling, friction(0.5, 0.4)]);
+        assert_eq!(
+            (two.spring, two.sliding, two.rolling, two.width),
+            (Some(0), Some(3), Some(4), 7)
+        );
+    }
 }

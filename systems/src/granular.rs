@@ -13,11 +13,12 @@
 //!
 //! Two passes over the pairs of the contact store (`ContactHistory::pairs`: the listed
 //! pairs within an inner skin, and those holding history): every pair once, four
-//! consecutive pairs at a time in `f64x4` lanes, with its history stored in blocks of four
-//! (the force and both torques kept per pair); then, per chunk of particles, the wall
-//! contacts four wall-list entries at a time in lanes, and every particle sums its own
-//! pairs, the pairs it is partner in, and its walls, in a fixed order: the result does not
-//! depend on the thread count. The model code is written once over [`Real`].
+//! consecutive pairs at a time in `f64x4` lanes, with its history stored in blocks of
+//! four, in the work items of the store's scatter plan (`ScatterPlan`): each item adds
+//! its pairs' force and torques to one record per particle it touches; then, per chunk
+//! of particles, the wall contacts four wall-list entries at a time in lanes, and every
+//! particle sums its records (in item order) and its walls, in a fixed order: the result
+//! does not depend on the thread count. The model code is written once over [`Real`].
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, PairList, Particles, Rotation,
@@ -269,9 +270,9 @@ impl<T: Real> History<T> {
         };
         Self {
             spring: v3(layout.spring),
-            sliding: layout.spring.map_or(T::splat(0.0), |o| value(o + 3)),
+            sliding: layout.sliding.map_or(T::splat(0.0), &value),
             rolling: v3(layout.rolling),
-            bond: layout.bond.map_or(T::splat(0.0), value),
+            bond: layout.bond.map_or(T::splat(0.0), &value),
         }
     }
 
@@ -285,8 +286,8 @@ impl<T: Real> History<T> {
                 put(o + 2, v.z);
             }
         }
-        if let Some(o) = layout.spring {
-            put(o + 3, self.sliding);
+        if let Some(o) = layout.sliding {
+            put(o, self.sliding);
         }
         if let Some(o) = layout.bond {
             put(o, self.bond);
@@ -295,9 +296,8 @@ impl<T: Real> History<T> {
 }
 
 /// One particle's sum over the pairs of one work item of the pair pass (its slot of the
-/// [`grainflow_components::ScatterPlan`]): force (3) and torque (3), and two lanes of
-/// padding, so that a record is one cache line.
-type SlotRecord = [f64; 8];
+/// [`grainflow_components::ScatterPlan`]): force (3) and torque (3).
+type SlotRecord = [f64; 6];
 
 /// Per wall-list entry: force (3) and torque (3) on the particle, overlap, and 1 if the
 /// contact acts (0: apart, nothing to add).
@@ -334,7 +334,7 @@ pub fn granular_contact(
 ) {
     let _span = tracing::info_span!("granular_contact").entered();
     let ContactHistory { pairs, values, .. } = &mut *history;
-    slot_sums.resize(pairs.scatter.slots(), [0.0; 8]);
+    slot_sums.resize(pairs.scatter.slots(), [0.0; 6]);
     let walls = match (
         walls.as_deref(),
         wall_list.as_deref(),
@@ -505,7 +505,7 @@ impl Kernel<'_> {
                 .enumerate()
                 .map(|(c, (records, history))| {
                     let rows = Rows::of(p);
-                    records.fill([0.0; 8]);
+                    records.fill([0.0; 6]);
                     let mut worst = (0.0f64, u32::MAX);
                     for (b, hist) in history.chunks_mut(LANES * width).enumerate() {
                         let k0 = c * per_item + b * LANES;

@@ -499,7 +499,7 @@ fn build_half_list(
 
 /// Select the pairs of the contact store (see [`ContactHistory`]): the listed pairs within
 /// `r_i + r_j + inner_skin` and every listed pair that holds history, each with its
-/// history carried from the store's previous pairs; then their reverse index. While the
+/// history carried from the store's previous pairs; then their scatter plan. While the
 /// rows hold the same particles as at the last selection, a row's previous pairs are
 /// found by a merge with its listed pairs (both ascending); after a re-sort or an
 /// insertion, by the stable ids of both particles ([`carry_history`]).
