@@ -775,10 +775,17 @@ impl Kernel<'_> {
         let mut h = History::<f64x4>::load(self.layout, |v| {
             f64x4::new(pick.map(|w| hist[w.at * width + v]))
         });
-        let refs = pick.map(|w| self.pair(w.material, p.material[w.particle]));
-        let coefficients = Coefficients::gather(&refs, |l| l);
+        let gathered;
+        let coefficients = match &self.one {
+            Some(c) => c,
+            None => {
+                let refs = pick.map(|w| self.pair(w.material, p.material[w.particle]));
+                gathered = Coefficients::gather(&refs, |l| l);
+                &gathered
+            }
+        };
         let dt = f64x4::splat(self.dt);
-        let e = interact::<f64x4, D>(&coefficients, self.layout, &mut h, &geometry, dt);
+        let e = interact::<f64x4, D>(coefficients, self.layout, &mut h, &geometry, dt);
         let t = e.rolling.cross(nrm).scale(ri) - nrm.cross(e.tangential).scale(ri);
         let acts = e.touching.blend(f64x4::ONE, f64x4::ZERO);
         let values = [
