@@ -594,7 +594,8 @@ fn select_history_pairs(
 
 /// The [`ScatterPlan`] of pairs `(owner[k], neighbours[k])` among `n` particles, in work
 /// items of `pairs_per_item` pairs: each item's slots are the distinct particles of its
-/// pairs, ascending; the records of each particle are indexed by a counting sort.
+/// pairs, in the order they first appear in its pairs; the records of each particle are
+/// indexed by a counting sort.
 pub fn scatter_plan(
     n: usize,
     owner: &[u32],
@@ -606,32 +607,35 @@ pub fn scatter_plan(
         pairs_per_item.is_multiple_of(ContactHistory::LANES) && 2 * pairs_per_item <= 1 << 16,
         "an item is whole blocks with 16-bit slots"
     );
+    // Per item: its distinct particles (marked in `slot_of`, one array per worker, reset
+    // after each item), sorted, so that the particles' sums read each item's records in
+    // order; then each pair's two slots.
     let items: Vec<(Vec<u32>, Vec<[u16; 2]>)> = owner
         .par_chunks(pairs_per_item)
         .zip(neighbours.par_chunks(pairs_per_item))
-        .map(|(own, nbrs)| {
-            // Every (particle, place) of the item, sorted: runs of one particle get one
-            // slot. Place 2q is the owner of the item's pair q, 2q + 1 its partner.
-            let mut keys: Vec<u64> = (own.iter().zip(nbrs))
-                .enumerate()
-                .flat_map(|(q, (&i, &j))| {
-                    let q = 2 * q as u64;
-                    [(i as u64) << 32 | q, (j as u64) << 32 | (q + 1)]
-                })
-                .collect();
-            keys.sort_unstable();
-            let mut touched: Vec<u32> = Vec::new();
-            let mut slots = vec![[0u16; 2]; own.len()];
-            for key in keys {
-                let particle = (key >> 32) as u32;
-                if touched.last() != Some(&particle) {
-                    touched.push(particle);
+        .map_init(
+            || vec![u32::MAX; n],
+            |slot_of, (own, nbrs)| {
+                let mut touched: Vec<u32> = Vec::new();
+                for &p in own.iter().chain(nbrs) {
+                    if slot_of[p as usize] == u32::MAX {
+                        slot_of[p as usize] = 0;
+                        touched.push(p);
+                    }
                 }
-                let place = key as u32 as usize;
-                slots[place / 2][place % 2] = (touched.len() - 1) as u16;
-            }
-            (touched, slots)
-        })
+                touched.sort_unstable();
+                for (s, &p) in touched.iter().enumerate() {
+                    slot_of[p as usize] = s as u32;
+                }
+                let slots = (own.iter().zip(nbrs))
+                    .map(|(&i, &j)| [slot_of[i as usize] as u16, slot_of[j as usize] as u16])
+                    .collect();
+                for &p in &touched {
+                    slot_of[p as usize] = u32::MAX;
+                }
+                (touched, slots)
+            },
+        )
         .collect();
     let mut item_start = Vec::with_capacity(items.len() + 1);
     item_start.push(0u32);
