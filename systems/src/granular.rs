@@ -496,10 +496,11 @@ impl Kernel<'_> {
         let plan = &list.scatter;
         let pairs_worst = {
             let _span = tracing::info_span!("pair_contacts").entered();
+            // (The empty plan before the store's first selection has no item size.)
             let per_item = plan.pairs_per_item.max(LANES);
             (
                 item_records(sums, &plan.item_start),
-                history.par_chunks_mut(per_item * width).collect::<Vec<_>>(),
+                history.par_chunks_mut(per_item * width),
             )
                 .into_par_iter()
                 .enumerate()

@@ -594,8 +594,7 @@ fn select_history_pairs(
 
 /// The [`ScatterPlan`] of pairs `(owner[k], neighbours[k])` among `n` particles, in work
 /// items of `pairs_per_item` pairs: each item's slots are the distinct particles of its
-/// pairs, in the order they first appear in its pairs; the records of each particle are
-/// indexed by a counting sort.
+/// pairs, ascending; the records of each particle are indexed by a counting sort.
 pub fn scatter_plan(
     n: usize,
     owner: &[u32],
