@@ -4,7 +4,9 @@
 use std::f64::consts::SQRT_2;
 
 use grainflow_components::WallShape;
-use grainflow_systems::walls::{wall_contains, wall_distance};
+use grainflow_systems::real::V3;
+use grainflow_systems::walls::{wall_contains, wall_distance, wall_distance_lanes};
+use wide::f64x4;
 
 mod common;
 
@@ -67,6 +69,61 @@ fn cone_distance_is_perpendicular_to_the_45_degree_meridian() {
     assert!((d2 - d).abs() < 1e-14);
     assert_eq!(wall_contains(&cone, [0.5, 0.0, 0.5]), Some(true));
     assert_eq!(wall_contains(&cone, [0.75, 0.0, 0.5]), Some(false));
+}
+
+/// The contact kernel with history computes the walls four entries at a time in lanes:
+/// each lane must get exactly the distance and normal of the one-point geometry (equal
+/// values; only the sign of a zero may differ, as wide negates by 0 - x), including points on the axis (any perpendicular radial direction), on the
+/// surface (the inward normal) and past the ends of the meridian segment.
+#[test]
+fn wall_geometry_in_lanes_equals_one_point_at_a_time() {
+    let shapes = [
+        WallShape::Plane {
+            point: [0.1, -0.2, 0.3],
+            normal: [0.6, 0.0, 0.8],
+        },
+        WallShape::Revolution {
+            origin: [0.0, 0.0, 0.0],
+            axis: [0.0, 0.0, 1.0],
+            r0: 0.2,
+            h0: 0.0,
+            r1: 1.25,
+            h1: 1.05,
+        },
+        WallShape::Revolution {
+            origin: [1.0, 2.0, -1.0],
+            axis: [0.0, 0.6, 0.8],
+            r0: 0.5,
+            h0: -1.0e9,
+            r1: 0.5,
+            h1: 1.0e9,
+        },
+    ];
+    // A fixed pseudo-random sequence (Weyl), plus the special points.
+    let mut points: Vec<[f64; 3]> = (0..64)
+        .map(|k| [0.618_034, 0.414_214, 0.732_051].map(|a| ((k as f64 * a).fract() - 0.5) * 3.0))
+        .collect();
+    points.extend([
+        [0.0, 0.0, 0.5],     // on the cone's axis
+        [0.2, 0.0, 0.0],     // on the cone's lower rim
+        [0.725, 0.0, 0.525], // on the cone's surface
+        [1.0, 2.0, 3.0],     // on the cylinder's axis
+        [0.0, 0.0, -2.0],    // below the cone's segment
+    ]);
+    let mut checked = 0;
+    for shape in &shapes {
+        for four in points.chunks(4) {
+            let pick = |d: usize| f64x4::new([0, 1, 2, 3].map(|l| four[l.min(four.len() - 1)][d]));
+            let (dist, n) = wall_distance_lanes(shape, V3::new(pick(0), pick(1), pick(2)));
+            for (l, &p) in four.iter().enumerate() {
+                let (d1, n1) = wall_distance(shape, p);
+                let lanes = [dist, n.x, n.y, n.z].map(|v| v.to_array()[l]);
+                assert_eq!(lanes, [d1, n1[0], n1[1], n1[2]], "{shape:?} at {p:?}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 3 * 69);
 }
 
 #[test]

@@ -87,11 +87,14 @@ pub struct Reorder {
 
 /// Candidate wall contacts in compressed rows, rebuilt with the Verlet list: the walls
 /// within `r_i + skin` of particle `i` are `walls[start[i]..start[i+1]]` (indices into
-/// `Walls::list`). Walls are static, so the Verlet criterion covers them too.
+/// `Walls::list`), and `particle[e]` is the particle of entry `e` (so that a pass over
+/// the entries need not walk the rows, most of them empty). Walls are static, so the
+/// Verlet criterion covers them too.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct WallList {
     pub start: Vec<u32>,
     pub walls: Vec<u16>,
+    pub particle: Vec<u32>,
     /// `VerletList::builds` when this list was built.
     pub built_for: u64,
 }

@@ -22,7 +22,7 @@
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, PairList, Particles, Rotation,
-    RunHealth, ScatterPlan, SimClock, TangentialStiffness, WallHistory, WallList, Walls,
+    RunHealth, ScatterPlan, SimClock, TangentialStiffness, Wall, WallHistory, WallList, Walls,
 };
 use rayon::prelude::*;
 use wide::{f64x4, CmpGe, CmpGt, CmpLt};
@@ -36,7 +36,7 @@ use crate::jkr::{
 };
 use crate::real::{gather, group_masks, Real, V3};
 use crate::rolling::{rolling_resistance_force, rolling_velocity};
-use crate::walls::{wall_contact, wall_distance};
+use crate::walls::wall_distance_lanes;
 use crate::{row_chunks, Rows, CHUNK};
 
 /// Whether the scene needs this system (some pair has friction, rolling or adhesion).
@@ -303,17 +303,6 @@ type SlotRecord = [f64; 6];
 /// contact acts (0: apart, nothing to add).
 type WallResult = [f64; 8];
 
-/// A wall-list entry waiting for its lane: its index in the chunk, its particle, the
-/// distance and normal from the wall, the wall's material.
-#[derive(Clone, Copy, Default)]
-struct WallLane {
-    at: usize,
-    particle: usize,
-    dist: f64,
-    normal: [f64; 3],
-    material: u16,
-}
-
 const LANES: usize = ContactHistory::LANES;
 
 #[allow(clippy::too_many_arguments)]
@@ -334,7 +323,9 @@ pub fn granular_contact(
 ) {
     let _span = tracing::info_span!("granular_contact").entered();
     let ContactHistory { pairs, values, .. } = &mut *history;
-    slot_sums.resize(pairs.scatter.slots(), [0.0; 6]);
+    // The records of the slots, then one zero record (see `pair_sum`).
+    slot_sums.resize(pairs.scatter.slots() + 1, [0.0; 6]);
+    slot_sums[pairs.scatter.slots()] = [0.0; 6];
     let walls = match (
         walls.as_deref(),
         wall_list.as_deref(),
@@ -416,12 +407,23 @@ fn both_passes<D: NormalDamping>(
 
 /// The force and torque on particle `i` from its pairs: its records over the work items
 /// of the pair pass, in item order. Its walls follow, in list order
-/// ([`Kernel::wall_contacts`]).
+/// ([`Kernel::wall_contacts`]). The first two records are read without a branch on the
+/// particle's count of records (most have one or two; adding the zero record that ends
+/// `sums` in place of a missing one changes no sum).
 #[inline(always)]
 fn pair_sum(plan: &ScatterPlan, i: usize, sums: &[SlotRecord]) -> [f64; 6] {
+    let records = &plan.gather[plan.gather_start[i] as usize..plan.gather_start[i + 1] as usize];
+    let zero = sums.len() - 1;
+    let first = records.first().map_or(zero, |&s| s as usize);
+    let second = records.get(1).map_or(zero, |&s| s as usize);
     let mut sum = [0.0; 6];
-    let records = plan.gather_start[i] as usize..plan.gather_start[i + 1] as usize;
-    for &s in &plan.gather[records] {
+    for s in [first, second] {
+        let r = &sums[s];
+        for d in 0..6 {
+            sum[d] += r[d];
+        }
+    }
+    for &s in records.get(2..).unwrap_or_default() {
         let r = &sums[s as usize];
         for d in 0..6 {
             sum[d] += r[d];
@@ -691,11 +693,11 @@ impl Kernel<'_> {
         }
     }
 
-    /// The wall contacts of particles `rows`, four wall-list entries at a time in lanes
-    /// (whatever their particles): `out` (the entries of `rows`) gets every entry's
-    /// [`WallResult`], `hist` (their history rows) is updated. An entry apart with no
-    /// history (so not bonded) is not computed. The lanes run the same arithmetic as one
-    /// contact at a time would: the sums do not change.
+    /// The wall contacts of particles `rows`, wall by wall, four of the wall's entries at
+    /// a time in lanes (whatever their particles): `out` (the entries of `rows`) gets every
+    /// entry's [`WallResult`], `hist` (their history rows) is updated. An entry apart gets
+    /// zero force and history, as the models give lanes out of contact. Each entry's result
+    /// is the same whatever entries share its lanes: the sums do not change.
     fn wall_contacts<D: NormalDamping>(
         &self,
         p: &Particles,
@@ -705,67 +707,55 @@ impl Kernel<'_> {
         hist: &mut [f64],
         out: &mut [WallResult],
     ) {
-        let width = self.layout.width;
-        let entry_base = wl.start[rows.start] as usize;
-        let mut pending = [WallLane::default(); LANES];
-        let mut count = 0;
-        for i in rows {
-            let xi = [p.position[0][i], p.position[1][i], p.position[2][i]];
-            let ri = p.radius[i];
-            for e in wl.start[i] as usize..wl.start[i + 1] as usize {
-                let at = e - entry_base;
-                out[at] = [0.0; 8];
-                let wall = &walls.list[wl.walls[e] as usize];
-                let (dist, normal) = match wall_contact(&wall.shape, xi, ri) {
-                    Some(contact) => contact,
-                    None if hist[at * width..(at + 1) * width].iter().all(|&h| h == 0.0) => {
-                        continue
-                    }
-                    None => wall_distance(&wall.shape, xi),
-                };
-                pending[count] = WallLane {
-                    at,
-                    particle: i,
-                    dist,
-                    normal,
-                    material: wall.material,
-                };
+        let entries = wl.start[rows.start] as usize..wl.start[rows.end] as usize;
+        let base = entries.start;
+        for (w, wall) in walls.list.iter().enumerate() {
+            let mut pending = [0; LANES];
+            let mut count = 0;
+            for e in entries.clone() {
+                if wl.walls[e] as usize != w {
+                    continue;
+                }
+                pending[count] = e;
                 count += 1;
                 if count == LANES {
-                    self.wall_lanes::<D>(p, &pending, count, hist, out);
+                    self.wall_lanes::<D>(p, wall, wl, base, &pending, count, hist, out);
                     count = 0;
                 }
             }
-        }
-        if count > 0 {
-            self.wall_lanes::<D>(p, &pending, count, hist, out);
+            if count > 0 {
+                self.wall_lanes::<D>(p, wall, wl, base, &pending, count, hist, out);
+            }
         }
     }
 
-    /// The first `count` entries of `lanes` (lanes past them repeat the last and are not
-    /// stored).
+    /// The first `count` of the wall-list entries `lanes` of `wall` (lanes past them repeat
+    /// the last and are not stored); `base` is the first entry of `hist` and `out`.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn wall_lanes<D: NormalDamping>(
         &self,
         p: &Particles,
-        lanes: &[WallLane; LANES],
+        wall: &Wall,
+        wl: &WallList,
+        base: usize,
+        lanes: &[usize; LANES],
         count: usize,
         hist: &mut [f64],
         out: &mut [WallResult],
     ) {
         let width = self.layout.width;
-        let pick = [0, 1, 2, 3].map(|l| lanes[l.min(count - 1)]);
-        let is = pick.map(|w| w.particle);
+        let at = [0, 1, 2, 3].map(|l| lanes[l.min(count - 1)] - base);
+        let is = at.map(|a| wl.particle[base + a] as usize);
         let ri = gather(&p.radius, &is);
-        let nrm = V3::new(
-            f64x4::new(pick.map(|w| w.normal[0])),
-            f64x4::new(pick.map(|w| w.normal[1])),
-            f64x4::new(pick.map(|w| w.normal[2])),
+        let (dist, nrm) = wall_distance_lanes(
+            &wall.shape,
+            gather3(&p.position.each_ref().map(|c| &c[..]), &is),
         );
         let wi = gather3(&p.angular_velocity.each_ref().map(|c| &c[..]), &is);
         let geometry = Geometry {
             n: nrm,
-            delta: ri - f64x4::new(pick.map(|w| w.dist)),
+            delta: ri - dist,
             r_eff: ri,
             radius_ratio: f64x4::ONE,
             inv_mass_sum: gather(&p.inv_mass, &is),
@@ -773,14 +763,13 @@ impl Kernel<'_> {
             surface: nrm.cross(wi).scale(ri),
             spin: wi,
         };
-        let mut h = History::<f64x4>::load(self.layout, |v| {
-            f64x4::new(pick.map(|w| hist[w.at * width + v]))
-        });
+        let mut h =
+            History::<f64x4>::load(self.layout, |v| f64x4::new(at.map(|a| hist[a * width + v])));
         let gathered;
         let coefficients = match &self.one {
             Some(c) => c,
             None => {
-                let refs = pick.map(|w| self.pair(w.material, p.material[w.particle]));
+                let refs = is.map(|i| self.pair(wall.material, p.material[i]));
                 gathered = Coefficients::gather(&refs, |l| l);
                 &gathered
             }
@@ -800,11 +789,11 @@ impl Kernel<'_> {
             acts,
         ]
         .map(|v| v.to_array());
-        for (l, w) in lanes[..count].iter().enumerate() {
+        for (l, &a) in at[..count].iter().enumerate() {
             h.store(self.layout, |v, x| {
-                hist[w.at * width + v] = x.as_array_ref()[l]
+                hist[a * width + v] = x.as_array_ref()[l]
             });
-            out[w.at] = values.map(|v| v[l]);
+            out[a] = values.map(|v| v[l]);
         }
     }
 }

@@ -5,7 +5,9 @@ use grainflow_components::{
     NeighbourSettings, Particles, SimClock, VerletList, WallList, WallShape, Walls,
 };
 use rayon::prelude::*;
+use wide::f64x4;
 
+use crate::real::{Real, V3};
 use crate::CHUNK;
 
 /// Distance from point `p` to the wall surface and the unit normal pointing from the
@@ -22,54 +24,122 @@ pub fn wall_distance(shape: &WallShape, p: [f64; 3]) -> (f64, [f64; 3]) {
 /// else `None`; the normal, with its divisions, is computed only for a contact.
 #[inline(always)]
 pub fn wall_contact(shape: &WallShape, p: [f64; 3], reach: f64) -> Option<(f64, [f64; 3])> {
+    let p = V3::new(p[0], p[1], p[2]);
     match *shape {
         WallShape::Plane { point, normal } => {
-            let s = (p[0] - point[0]) * normal[0]
-                + (p[1] - point[1]) * normal[1]
-                + (p[2] - point[2]) * normal[2];
+            let s = plane_distance(point, normal, p);
             if s >= reach {
                 return None;
             }
             Some((s, normal))
         }
-        WallShape::Revolution {
+        WallShape::Revolution { .. } => {
+            let gap = MeridianGap::of(shape, p);
+            if gap.dist >= reach {
+                return None;
+            }
+            let (dist, n) = gap.normal(shape);
+            Some((dist, [n.x, n.y, n.z]))
+        }
+    }
+}
+
+/// [`wall_distance`] of four points in lanes from one wall (whatever the distances: every
+/// lane gets its normal, with the same arithmetic as one point at a time).
+#[inline(always)]
+pub fn wall_distance_lanes(shape: &WallShape, p: V3<f64x4>) -> (f64x4, V3<f64x4>) {
+    match *shape {
+        WallShape::Plane { point, normal } => (plane_distance(point, normal, p), splat3(normal)),
+        WallShape::Revolution { .. } => MeridianGap::of(shape, p).normal(shape),
+    }
+}
+
+#[inline(always)]
+fn splat3<T: Real>(a: [f64; 3]) -> V3<T> {
+    V3::new(T::splat(a[0]), T::splat(a[1]), T::splat(a[2]))
+}
+
+/// Signed distance (p - point) . normal of `p` from a plane.
+#[inline(always)]
+fn plane_distance<T: Real>(point: [f64; 3], normal: [f64; 3], p: V3<T>) -> T {
+    (p - splat3(point)).dot(splat3(normal))
+}
+
+/// A point against the meridian segment (r0, h0)-(r1, h1) of a surface of revolution, in
+/// the (radius, height) half-plane through the point: its height `h` along the axis, its
+/// radial offset from the axis and that offset's length `rho`, its offset (gr, gh) from the
+/// closest point of the segment, and the length `dist` of that offset.
+struct MeridianGap<T> {
+    radial: V3<T>,
+    rho: T,
+    gr: T,
+    gh: T,
+    dist: T,
+}
+
+impl<T: Real> MeridianGap<T> {
+    #[inline(always)]
+    fn of(shape: &WallShape, p: V3<T>) -> Self {
+        let WallShape::Revolution {
             origin,
             axis,
             r0,
             h0,
             r1,
             h1,
-        } => {
-            let q = [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]];
-            let h = q[0] * axis[0] + q[1] * axis[1] + q[2] * axis[2];
-            let radial = [q[0] - h * axis[0], q[1] - h * axis[1], q[2] - h * axis[2]];
-            let rho =
-                (radial[0] * radial[0] + radial[1] * radial[1] + radial[2] * radial[2]).sqrt();
-            let (dr, dh) = (r1 - r0, h1 - h0);
-            let len2 = dr * dr + dh * dh;
-            let t = (((rho - r0) * dr + (h - h0) * dh) / len2).clamp(0.0, 1.0);
-            let (cr, ch) = (r0 + t * dr, h0 + t * dh);
-            let (gr, gh) = (rho - cr, h - ch);
-            let dist = (gr * gr + gh * gh).sqrt();
-            if dist >= reach {
-                return None;
-            }
-            let e_r = if rho > 0.0 {
-                [radial[0] / rho, radial[1] / rho, radial[2] / rho]
-            } else {
-                any_perpendicular(axis)
-            };
-            Some(if dist > 0.0 {
-                let n = [
-                    (gr * e_r[0] + gh * axis[0]) / dist,
-                    (gr * e_r[1] + gh * axis[1]) / dist,
-                    (gr * e_r[2] + gh * axis[2]) / dist,
-                ];
-                (dist, n)
-            } else {
-                (0.0, [-e_r[0], -e_r[1], -e_r[2]])
-            })
+        } = *shape
+        else {
+            unreachable!("a surface of revolution")
+        };
+        let axis = splat3::<T>(axis);
+        let q = p - splat3(origin);
+        let h = q.dot(axis);
+        let radial = q - axis.scale(h);
+        let rho = radial.length();
+        let (dr, dh) = (r1 - r0, h1 - h0);
+        let len2 = T::splat(dr * dr + dh * dh);
+        let (r0, h0, dr, dh) = (T::splat(r0), T::splat(h0), T::splat(dr), T::splat(dh));
+        let (zero, one) = (T::splat(0.0), T::splat(1.0));
+        // t clamped to [0, 1] as f64::clamp does (NaN passes).
+        let t = ((rho - r0) * dr + (h - h0) * dh) / len2;
+        let t = T::select(t.lt(zero), zero, T::select(t.gt(one), one, t));
+        let (gr, gh) = (rho - (r0 + t * dr), h - (h0 + t * dh));
+        Self {
+            radial,
+            rho,
+            gr,
+            gh,
+            dist: (gr * gr + gh * gh).sqrt(),
         }
+    }
+
+    /// The distance and the unit normal from the wall towards the point; at the axis the
+    /// radial direction is any perpendicular, on the surface the normal is inward.
+    #[inline(always)]
+    fn normal(&self, shape: &WallShape) -> (T, V3<T>) {
+        let WallShape::Revolution { axis, .. } = *shape else {
+            unreachable!("a surface of revolution")
+        };
+        let zero = T::splat(0.0);
+        let on_axis = splat3(any_perpendicular(axis));
+        let axis = splat3::<T>(axis);
+        let off_axis = zero.lt(self.rho);
+        let e_r = V3::select(
+            off_axis,
+            V3::new(
+                self.radial.x / self.rho,
+                self.radial.y / self.rho,
+                self.radial.z / self.rho,
+            ),
+            on_axis,
+        );
+        let apart = zero.lt(self.dist);
+        let n = e_r.scale(self.gr) + axis.scale(self.gh);
+        let n = V3::new(n.x / self.dist, n.y / self.dist, n.z / self.dist);
+        (
+            T::select(apart, self.dist, zero),
+            V3::select(apart, n, -e_r),
+        )
     }
 }
 
@@ -166,14 +236,17 @@ pub fn wall_list(
     let WallList {
         start,
         walls: ids,
+        particle,
         built_for,
     } = &mut *wall_list;
     start.clear();
     start.push(0);
     ids.clear();
+    particle.clear();
     let mut total = 0;
     for (chunk_ids, counts) in rows {
         for c in counts {
+            particle.extend(std::iter::repeat_n(start.len() as u32 - 1, c as usize));
             total += c;
             start.push(total);
         }
