@@ -34,7 +34,7 @@ use crate::hertz::{
 use crate::jkr::{
     jkr_contact_radius, jkr_critical_separation, jkr_equilibrium_radius, jkr_force_at_radius,
 };
-use crate::real::{gather, group_masks, Real, V3};
+use crate::real::{gather, group_masks, transpose4, Real, V3};
 use crate::rolling::{rolling_resistance_force, rolling_velocity};
 use crate::walls::wall_distance_lanes;
 use crate::{row_chunks, Rows, CHUNK};
@@ -432,6 +432,16 @@ fn pair_sum(plan: &ScatterPlan, i: usize, sums: &[SlotRecord]) -> [f64; 6] {
     sum
 }
 
+/// `record += (head, tail)`: the first four values in one 4-wide add.
+#[inline(always)]
+fn add_to_record(record: &mut SlotRecord, head: f64x4, tail: [f64; 2]) {
+    let (first, last) = record.split_at_mut(4);
+    let first: &mut [f64; 4] = first.try_into().expect("six values");
+    *first = (f64x4::new(*first) + head).to_array();
+    last[0] += tail[0];
+    last[1] += tail[1];
+}
+
 /// The records of every work item of the pair pass (`item_start`: the slots of each).
 fn item_records<'a>(
     mut sums: &'a mut [SlotRecord],
@@ -662,22 +672,16 @@ impl Kernel<'_> {
         let roll = e.rolling.cross(nrm).scale(geometry.r_eff);
         let owner = roll - arm.scale(ri);
         let partner = -(arm.scale(rj) + roll);
-        let shares = [
-            e.force.x, e.force.y, e.force.z, owner.x, owner.y, owner.z, -e.force.x, -e.force.y,
-            -e.force.z, partner.x, partner.y, partner.z,
-        ]
-        .map(|v| v.to_array());
+        // Per lane: (F, T_x) on the owner, (-F, T_x) on the partner, and both (T_y, T_z).
+        let to_owner = transpose4([e.force.x, e.force.y, e.force.z, owner.x]);
+        let to_partner = transpose4([-e.force.x, -e.force.y, -e.force.z, partner.x]);
+        let rest = transpose4([owner.y, owner.z, partner.y, partner.z]);
         let slots = &list.scatter.pair_slot[k0..k0 + valid];
         // Lanes out of contact add zeros (the sums do not change); masked lanes nothing.
         for (l, [so, sp]) in slots.iter().enumerate() {
-            let r = &mut records[*so as usize];
-            for d in 0..6 {
-                r[d] += shares[d][l];
-            }
-            let r = &mut records[*sp as usize];
-            for d in 0..6 {
-                r[d] += shares[6 + d][l];
-            }
+            let rest = rest[l].as_array_ref();
+            add_to_record(&mut records[*so as usize], to_owner[l], [rest[0], rest[1]]);
+            add_to_record(&mut records[*sp as usize], to_partner[l], [rest[2], rest[3]]);
         }
         let overlap = e.touching & geometry.delta.cmp_gt(zero) & lane_mask[valid - 1];
         let ratio = overlap.blend(geometry.delta / ri.min(rj), zero);

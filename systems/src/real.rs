@@ -213,6 +213,36 @@ impl<T: Real> Neg for V3<T> {
     }
 }
 
+/// The 4 x 4 transpose: lane `l` of output `k` is lane `k` of input `l` (exact: it only
+/// moves values). With AVX, eight shuffles in registers.
+#[inline(always)]
+pub fn transpose4(rows: [f64x4; 4]) -> [f64x4; 4] {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+    {
+        use std::arch::x86_64::{
+            __m256d, _mm256_permute2f128_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd,
+        };
+        // SAFETY: f64x4 and __m256d are both four f64 in 32 bytes (wide builds f64x4 on
+        // __m256d with AVX), and the intrinsics need only AVX, enabled for this build.
+        unsafe {
+            let [a, b, c, d]: [__m256d; 4] = std::mem::transmute(rows);
+            let (ab_lo, ab_hi) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+            let (cd_lo, cd_hi) = (_mm256_unpacklo_pd(c, d), _mm256_unpackhi_pd(c, d));
+            std::mem::transmute::<[__m256d; 4], [f64x4; 4]>([
+                _mm256_permute2f128_pd(ab_lo, cd_lo, 0x20),
+                _mm256_permute2f128_pd(ab_hi, cd_hi, 0x20),
+                _mm256_permute2f128_pd(ab_lo, cd_lo, 0x31),
+                _mm256_permute2f128_pd(ab_hi, cd_hi, 0x31),
+            ])
+        }
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+    {
+        let a = rows.map(|r| r.to_array());
+        [0, 1, 2, 3].map(|k| f64x4::new([a[0][k], a[1][k], a[2][k], a[3][k]]))
+    }
+}
+
 /// Gather `col[js[0..4]]` into lanes.
 #[inline(always)]
 pub fn gather(col: &[f64], js: &[usize; 4]) -> f64x4 {
