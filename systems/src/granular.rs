@@ -681,7 +681,11 @@ impl Kernel<'_> {
         for (l, [so, sp]) in slots.iter().enumerate() {
             let rest = rest[l].as_array_ref();
             add_to_record(&mut records[*so as usize], to_owner[l], [rest[0], rest[1]]);
-            add_to_record(&mut records[*sp as usize], to_partner[l], [rest[2], rest[3]]);
+            add_to_record(
+                &mut records[*sp as usize],
+                to_partner[l],
+                [rest[2], rest[3]],
+            );
         }
         let overlap = e.touching & geometry.delta.cmp_gt(zero) & lane_mask[valid - 1];
         let ratio = overlap.blend(geometry.delta / ri.min(rj), zero);

@@ -33,12 +33,25 @@ pub fn wall_contact(shape: &WallShape, p: [f64; 3], reach: f64) -> Option<(f64, 
             }
             Some((s, normal))
         }
-        WallShape::Revolution { .. } => {
-            let gap = MeridianGap::of(shape, p);
+        WallShape::Revolution {
+            origin,
+            axis,
+            r0,
+            h0,
+            r1,
+            h1,
+        } => {
+            let gap = MeridianGap::of(origin, axis, [r0, h0, r1, h1], p);
             if gap.dist >= reach {
                 return None;
             }
-            let (dist, n) = gap.normal(shape);
+            // The radial direction at the axis (rare): only then worked out.
+            let on_axis = if gap.rho > 0.0 {
+                V3::zero()
+            } else {
+                splat3(any_perpendicular(axis))
+            };
+            let (dist, n) = gap.normal(axis, on_axis);
             Some((dist, [n.x, n.y, n.z]))
         }
     }
@@ -50,7 +63,15 @@ pub fn wall_contact(shape: &WallShape, p: [f64; 3], reach: f64) -> Option<(f64, 
 pub fn wall_distance_lanes(shape: &WallShape, p: V3<f64x4>) -> (f64x4, V3<f64x4>) {
     match *shape {
         WallShape::Plane { point, normal } => (plane_distance(point, normal, p), splat3(normal)),
-        WallShape::Revolution { .. } => MeridianGap::of(shape, p).normal(shape),
+        WallShape::Revolution {
+            origin,
+            axis,
+            r0,
+            h0,
+            r1,
+            h1,
+        } => MeridianGap::of(origin, axis, [r0, h0, r1, h1], p)
+            .normal(axis, splat3(any_perpendicular(axis))),
     }
 }
 
@@ -78,19 +99,9 @@ struct MeridianGap<T> {
 }
 
 impl<T: Real> MeridianGap<T> {
+    /// For the wall of `origin`, unit `axis` and meridian `[r0, h0, r1, h1]`.
     #[inline(always)]
-    fn of(shape: &WallShape, p: V3<T>) -> Self {
-        let WallShape::Revolution {
-            origin,
-            axis,
-            r0,
-            h0,
-            r1,
-            h1,
-        } = *shape
-        else {
-            unreachable!("a surface of revolution")
-        };
+    fn of(origin: [f64; 3], axis: [f64; 3], [r0, h0, r1, h1]: [f64; 4], p: V3<T>) -> Self {
         let axis = splat3::<T>(axis);
         let q = p - splat3(origin);
         let h = q.dot(axis);
@@ -114,14 +125,11 @@ impl<T: Real> MeridianGap<T> {
     }
 
     /// The distance and the unit normal from the wall towards the point; at the axis the
-    /// radial direction is any perpendicular, on the surface the normal is inward.
+    /// radial direction is `on_axis` (any perpendicular to the axis), on the surface the
+    /// normal is inward.
     #[inline(always)]
-    fn normal(&self, shape: &WallShape) -> (T, V3<T>) {
-        let WallShape::Revolution { axis, .. } = *shape else {
-            unreachable!("a surface of revolution")
-        };
+    fn normal(&self, axis: [f64; 3], on_axis: V3<T>) -> (T, V3<T>) {
         let zero = T::splat(0.0);
-        let on_axis = splat3(any_perpendicular(axis));
         let axis = splat3::<T>(axis);
         let off_axis = zero.lt(self.rho);
         let e_r = V3::select(
