@@ -5,7 +5,7 @@ use std::f64::consts::SQRT_2;
 
 use grainflow_components::WallShape;
 use grainflow_systems::real::V3;
-use grainflow_systems::walls::{wall_contains, wall_distance, wall_distance_lanes};
+use grainflow_systems::walls::{wall_contains, wall_distance, WallLanes};
 use wide::f64x4;
 
 mod common;
@@ -114,7 +114,7 @@ fn wall_geometry_in_lanes_equals_one_point_at_a_time() {
     for shape in &shapes {
         for four in points.chunks(4) {
             let pick = |d: usize| f64x4::new([0, 1, 2, 3].map(|l| four[l.min(four.len() - 1)][d]));
-            let (dist, n) = wall_distance_lanes(shape, V3::new(pick(0), pick(1), pick(2)));
+            let (dist, n) = WallLanes::new(shape).distance(V3::new(pick(0), pick(1), pick(2)));
             for (l, &p) in four.iter().enumerate() {
                 let (d1, n1) = wall_distance(shape, p);
                 let lanes = [dist, n.x, n.y, n.z].map(|v| v.to_array()[l]);

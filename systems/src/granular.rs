@@ -36,7 +36,7 @@ use crate::jkr::{
 };
 use crate::real::{gather, group_masks, transpose4, Real, V3};
 use crate::rolling::{rolling_resistance_force, rolling_velocity};
-use crate::walls::wall_distance_lanes;
+use crate::walls::WallLanes;
 use crate::{row_chunks, Rows, CHUNK};
 
 /// Whether the scene needs this system (some pair has friction, rolling or adhesion).
@@ -718,6 +718,7 @@ impl Kernel<'_> {
         let entries = wl.start[rows.start] as usize..wl.start[rows.end] as usize;
         let base = entries.start;
         for (w, wall) in walls.list.iter().enumerate() {
+            let shape = WallLanes::new(&wall.shape);
             let mut pending = [0; LANES];
             let mut count = 0;
             for e in entries.clone() {
@@ -727,24 +728,25 @@ impl Kernel<'_> {
                 pending[count] = e;
                 count += 1;
                 if count == LANES {
-                    self.wall_lanes::<D>(p, wall, wl, base, &pending, count, hist, out);
+                    self.wall_lanes::<D>(p, (wall, &shape), wl, base, &pending, count, hist, out);
                     count = 0;
                 }
             }
             if count > 0 {
-                self.wall_lanes::<D>(p, wall, wl, base, &pending, count, hist, out);
+                self.wall_lanes::<D>(p, (wall, &shape), wl, base, &pending, count, hist, out);
             }
         }
     }
 
-    /// The first `count` of the wall-list entries `lanes` of `wall` (lanes past them repeat
-    /// the last and are not stored); `base` is the first entry of `hist` and `out`.
+    /// The first `count` of the wall-list entries `lanes` of `wall` (its geometry in lanes:
+    /// `shape`; lanes past them repeat the last and are not stored); `base` is the first
+    /// entry of `hist` and `out`.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn wall_lanes<D: NormalDamping>(
         &self,
         p: &Particles,
-        wall: &Wall,
+        (wall, shape): (&Wall, &WallLanes),
         wl: &WallList,
         base: usize,
         lanes: &[usize; LANES],
@@ -756,10 +758,7 @@ impl Kernel<'_> {
         let at = [0, 1, 2, 3].map(|l| lanes[l.min(count - 1)] - base);
         let is = at.map(|a| wl.particle[base + a] as usize);
         let ri = gather(&p.radius, &is);
-        let (dist, nrm) = wall_distance_lanes(
-            &wall.shape,
-            gather3(&p.position.each_ref().map(|c| &c[..]), &is),
-        );
+        let (dist, nrm) = shape.distance(gather3(&p.position.each_ref().map(|c| &c[..]), &is));
         let wi = gather3(&p.angular_velocity.each_ref().map(|c| &c[..]), &is);
         let geometry = Geometry {
             n: nrm,

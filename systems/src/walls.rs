@@ -57,21 +57,40 @@ pub fn wall_contact(shape: &WallShape, p: [f64; 3], reach: f64) -> Option<(f64, 
     }
 }
 
-/// [`wall_distance`] of four points in lanes from one wall (whatever the distances: every
-/// lane gets its normal, with the same arithmetic as one point at a time).
-#[inline(always)]
-pub fn wall_distance_lanes(shape: &WallShape, p: V3<f64x4>) -> (f64x4, V3<f64x4>) {
-    match *shape {
-        WallShape::Plane { point, normal } => (plane_distance(point, normal, p), splat3(normal)),
-        WallShape::Revolution {
-            origin,
-            axis,
-            r0,
-            h0,
-            r1,
-            h1,
-        } => MeridianGap::of(origin, axis, [r0, h0, r1, h1], p)
-            .normal(axis, splat3(any_perpendicular(axis))),
+/// One wall for [`wall_distance`] of four points at a time in lanes (whatever the
+/// distances: every lane gets its normal, with the same arithmetic as one point at a time),
+/// with what does not depend on the points worked out once.
+pub struct WallLanes<'a> {
+    shape: &'a WallShape,
+    /// The radial direction at the axis of a surface of revolution.
+    on_axis: V3<f64x4>,
+}
+
+impl<'a> WallLanes<'a> {
+    pub fn new(shape: &'a WallShape) -> Self {
+        let on_axis = match *shape {
+            WallShape::Plane { .. } => V3::zero(),
+            WallShape::Revolution { axis, .. } => splat3(any_perpendicular(axis)),
+        };
+        Self { shape, on_axis }
+    }
+
+    /// The distances of the points `p` from the wall and the unit normals towards them.
+    #[inline(always)]
+    pub fn distance(&self, p: V3<f64x4>) -> (f64x4, V3<f64x4>) {
+        match *self.shape {
+            WallShape::Plane { point, normal } => {
+                (plane_distance(point, normal, p), splat3(normal))
+            }
+            WallShape::Revolution {
+                origin,
+                axis,
+                r0,
+                h0,
+                r1,
+                h1,
+            } => MeridianGap::of(origin, axis, [r0, h0, r1, h1], p).normal(axis, self.on_axis),
+        }
     }
 }
 
