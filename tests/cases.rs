@@ -1,0 +1,79 @@
+//! The scenes under `cases/`: every one passes `grainflow check` (known fields, valid
+//! values, particles inside the walls, a stable time step), and the dense state of the
+//! small hopper has the walls of that hopper, the benchmark hopper of
+//! `shared/bench/lammps-hopper` scaled by s = (20000/50000)^(1/3) (hopper_params.lmp:
+//! outlet radius 0.20 s at z = 0, 45-degree cone), not those of the 50,000-particle one.
+use std::path::{Path, PathBuf};
+
+mod common;
+use common::run_cli;
+
+/// A LAMMPS `atom_style sphere` data file of two spheres (r = 0.02 m, rho = 10) resting
+/// at z = 0.02 m, the second at radius `x` from the hopper axis.
+fn two_spheres(dir: &Path, x: f64) -> PathBuf {
+    let text = format!(
+        "two spheres\n\n2 atoms\n1 atom types\n\n-1.5 1.5 xlo xhi\n-1.5 1.5 ylo yhi\n\
+         -0.1 3.0 zlo zhi\n\nAtoms # sphere\n\n1 1 0.04 10 0.0 0.0 0.02 0 0 0\n\
+         2 1 0.04 10 {x} 0.0 0.02 0 0 0\n"
+    );
+    let path = dir.join(format!("two_{x}.data"));
+    std::fs::write(&path, text).expect("write data file");
+    path
+}
+
+fn cases() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let mut cases: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("cases/")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    cases.sort();
+    cases
+}
+
+/// `grainflow check CASE`, with the LAMMPS data file of a benchmark state replaced by
+/// `data` (the harness's files are not part of the repository).
+fn check(case: &Path, data: &Path) -> (i32, String, String) {
+    let text = std::fs::read_to_string(case).expect("case file");
+    let set = format!("lammps.0.file={}", data.display());
+    let mut args = vec!["check", case.to_str().expect("utf-8 path")];
+    if text.contains("[[lammps]]") {
+        args.extend(["--set", &set]);
+    }
+    run_cli(&args)
+}
+
+#[test]
+fn every_case_passes_check() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let data = two_spheres(dir.path(), 0.05);
+    let cases = cases();
+    assert!(cases.len() >= 16, "cases/ holds the scenes: {cases:?}");
+    for case in &cases {
+        let (code, stdout, stderr) = check(case, &data);
+        assert_eq!(code, 0, "{}: {stderr}", case.display());
+        assert!(stdout.contains("schedule"), "{}: {stdout}", case.display());
+    }
+}
+
+#[test]
+fn small_dense_state_has_the_walls_of_the_small_hopper() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cases = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let (small, large) = (
+        cases.join("bench-hopper-small-dense.toml"),
+        cases.join("bench-hopper-dense.toml"),
+    );
+    // The cone's radius at z = 0.02 m: 0.20 s + 0.02 = 0.1674 m in the small hopper,
+    // 0.22 m in the large one.
+    let s = (20_000.0f64 / 50_000.0).cbrt();
+    let rim = 0.20 * s + 0.02;
+    let inside = two_spheres(dir.path(), rim - 0.005);
+    let between = two_spheres(dir.path(), rim + 0.01);
+    assert_eq!(check(&small, &inside).0, 0);
+    let (code, _, stderr) = check(&small, &between);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("outside wall `hopper cone`"), "{stderr}");
+    assert_eq!(check(&large, &between).0, 0);
+}
