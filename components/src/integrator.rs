@@ -13,8 +13,9 @@ pub enum IntegratorKind {
 }
 
 /// Higher time derivatives of the position kept by the Gear predictor-corrector
-/// (acceleration, its first and second time derivative), one row per particle.
-/// Allocated only when the scene uses Gear.
+/// (acceleration, its first and second time derivative), one row per particle, as the
+/// last corrector left them (the predictor moves x and v only; the corrector forms the
+/// predicted derivatives itself). Allocated only when the scene uses Gear.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct GearState {
     pub acc: Columns,

@@ -7,7 +7,7 @@ use crate::{Columns, PerParticle};
 /// (friction, rolling resistance): torque of the step, the
 /// orientation quaternion (w, x, y, z; for later shaped particles and for output), and
 /// the integrator's extra columns for the angular velocity (Gear: dw/dt, d2w/dt2,
-/// d3w/dt3; velocity Verlet: w(t + dt/2)).
+/// d3w/dt3 as the last corrector left them; velocity Verlet: w(t + dt/2)).
 #[derive(Resource, Debug, Clone, Default)]
 pub struct Rotation {
     pub torque: Columns,

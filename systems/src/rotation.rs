@@ -11,7 +11,7 @@ use bevy_ecs::prelude::*;
 use grainflow_components::{IntegratorKind, Particles, Rotation, SimClock};
 use rayon::prelude::*;
 
-use crate::gear::flush_tiny;
+use crate::gear::{flush_tiny, predicted_derivatives};
 use crate::CHUNK;
 
 /// Whether the world integrates rotation (some contact law produces torques).
@@ -27,39 +27,38 @@ pub fn aux_columns(kind: IntegratorKind) -> usize {
     }
 }
 
-/// Gear predictor for w: w += w' dt + w'' dt^2/2 + w''' dt^3/6, w' += w'' dt + w''' dt^2/2,
-/// w'' += w''' dt.
+/// Gear predictor for w: w += w' dt + w'' dt^2/2 + w''' dt^3/6. As for the translation
+/// (`gear.rs`), the predicted w' and w'' are formed by the corrector.
 pub fn gear_rotation_predict(
     mut particles: ResMut<Particles>,
-    mut rotation: ResMut<Rotation>,
+    rotation: Res<Rotation>,
     clock: Res<SimClock>,
 ) {
     let _span = tracing::info_span!("gear_rotation_predict").entered();
     let dt = clock.dt;
     let (h2, h3) = (dt * dt / 2.0, dt * dt * dt / 6.0);
-    let [acc, jerk, snap] = &mut rotation.aux[..] else {
+    let [acc, jerk, snap] = &rotation.aux[..] else {
         unreachable!("Gear keeps three rotation columns")
     };
     for d in 0..3 {
         (
             particles.angular_velocity[d].par_chunks_mut(CHUNK),
-            acc[d].par_chunks_mut(CHUNK),
-            jerk[d].par_chunks_mut(CHUNK),
+            acc[d].par_chunks(CHUNK),
+            jerk[d].par_chunks(CHUNK),
             snap[d].par_chunks(CHUNK),
         )
             .into_par_iter()
             .for_each(|(w, a, b, c)| {
                 for k in 0..w.len() {
                     w[k] += a[k] * dt + b[k] * h2 + c[k] * h3;
-                    a[k] += b[k] * dt + c[k] * h2;
-                    b[k] += c[k] * dt;
                 }
             });
     }
 }
 
-/// Gear corrector for w with Delta = T/I - w'_p: w += 3/8 dt Delta, w' += Delta,
-/// w'' += 3/2 Delta/dt, w''' += Delta/dt^2; then the orientation. As for the translation,
+/// Gear corrector for w with the predicted w'_p = w' + w'' dt + w''' dt^2/2 and
+/// w''_p = w'' + w''' dt, and Delta = T/I - w'_p: w += 3/8 dt Delta, w' = w'_p + Delta,
+/// w'' = w''_p + 3/2 Delta/dt, w''' += Delta/dt^2; then the orientation. As for the translation,
 /// |w''|, |w'''| < 1e-150 are set to zero (they decay geometrically without torque and
 /// would become slow subnormal numbers).
 pub fn gear_rotation_correct(
@@ -69,6 +68,7 @@ pub fn gear_rotation_correct(
 ) {
     let _span = tracing::info_span!("gear_rotation_correct").entered();
     let dt = clock.dt;
+    let h2 = dt * dt / 2.0;
     let (cw, cb, cc) = (3.0 / 8.0 * dt, 1.5 / dt, 1.0 / (dt * dt));
     let Rotation { torque, aux, .. } = &mut *rotation;
     let [acc, jerk, snap] = &mut aux[..] else {
@@ -93,10 +93,11 @@ pub fn gear_rotation_correct(
             .into_par_iter()
             .for_each(|(w, a, b, c, t, im, r)| {
                 for k in 0..w.len() {
-                    let delta = t[k] * inverse_inertia(im[k], r[k]) - a[k];
+                    let (a_p, b_p) = predicted_derivatives(a[k], b[k], c[k], dt, h2);
+                    let delta = t[k] * inverse_inertia(im[k], r[k]) - a_p;
                     w[k] += cw * delta;
-                    a[k] += delta;
-                    b[k] = flush_tiny(b[k] + cb * delta);
+                    a[k] = a_p + delta;
+                    b[k] = flush_tiny(b_p + cb * delta);
                     c[k] = flush_tiny(c[k] + cc * delta);
                 }
             });
