@@ -11,7 +11,8 @@
 //!
 //! The predictor writes only x and v, which the forces need: the corrector forms the
 //! predicted a_p = a + b dt + c dt^2/2 and b_p = b + c dt itself, with the same
-//! arithmetic, from the a, b, c of the last step (five columns fewer moved per step).
+//! arithmetic, from the a, b, c of the last step (two columns per coordinate fewer
+//! written per step).
 //!
 //! Under a constant force (free fall) b and c decay geometrically towards zero and would
 //! become subnormal numbers, whose arithmetic is about a hundred times slower: the

@@ -755,8 +755,9 @@ impl Kernel<'_> {
         out: &mut [WallResult],
     ) {
         let width = self.layout.width;
-        let at = [0, 1, 2, 3].map(|l| lanes[l.min(count - 1)] - base);
-        let is = at.map(|a| wl.particle[base + a] as usize);
+        let entries = [0, 1, 2, 3].map(|l| lanes[l.min(count - 1)]);
+        let at = entries.map(|e| e - base);
+        let is = entries.map(|e| wl.particle[e] as usize);
         let ri = gather(&p.radius, &is);
         let (dist, nrm) = shape.distance(gather3(&p.position.each_ref().map(|c| &c[..]), &is));
         let wi = gather3(&p.angular_velocity.each_ref().map(|c| &c[..]), &is);

@@ -58,9 +58,9 @@ pub fn gear_rotation_predict(
 
 /// Gear corrector for w with the predicted w'_p = w' + w'' dt + w''' dt^2/2 and
 /// w''_p = w'' + w''' dt, and Delta = T/I - w'_p: w += 3/8 dt Delta, w' = w'_p + Delta,
-/// w'' = w''_p + 3/2 Delta/dt, w''' += Delta/dt^2; then the orientation. As for the translation,
-/// |w''|, |w'''| < 1e-150 are set to zero (they decay geometrically without torque and
-/// would become slow subnormal numbers).
+/// w'' = w''_p + 3/2 Delta/dt, w''' += Delta/dt^2; then the orientation. As for the
+/// translation, |w''|, |w'''| < 1e-150 are set to zero (they decay geometrically without
+/// torque and would become slow subnormal numbers).
 pub fn gear_rotation_correct(
     mut particles: ResMut<Particles>,
     mut rotation: ResMut<Rotation>,
