@@ -31,6 +31,12 @@ pub struct ParticleOutput {
 }
 
 impl ParticleOutput {
+    /// Whether the writer writes a frame at the end of the step that reaches simulated
+    /// `time` (time step `dt`).
+    pub fn due(&self, time: f64, dt: f64) -> bool {
+        self.interval > 0.0 && time + 0.5 * dt >= self.next_time
+    }
+
     pub fn create(dir: &Path, interval: f64) -> Result<Self, String> {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create output directory {}: {e}", dir.display()))?;
@@ -265,7 +271,7 @@ pub fn write_particles(
     if health.failure.is_some() || out.error.is_some() || out.interval <= 0.0 {
         return;
     }
-    if clock.time + 0.5 * clock.dt >= out.next_time {
+    if out.due(clock.time, clock.dt) {
         out.next_time += out.interval;
         while out.next_time <= clock.time {
             out.next_time += out.interval;

@@ -6,11 +6,11 @@ use std::time::Instant;
 
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Clamped, ContactHistory, FluidFlow, GearState, Materials, Particles, PerParticle, Rotation,
-    RunHealth, SimClock, VerletList, VerletState, WallHistory,
+    Clamped, ContactHistory, FluidFlow, GearState, Materials, Particles, PerParticle, PredictAhead,
+    Rotation, RunHealth, SimClock, VerletList, VerletState, WallHistory,
 };
 use grainflow_systems::monitor::kinetic_energy;
-use grainflow_systems::schedule::Slot;
+use grainflow_systems::schedule::{corrector_may_predict_ahead, Slot};
 use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
 
 use crate::observables::{observables, record_coupling, CouplingLog};
@@ -106,6 +106,9 @@ impl Simulation {
             };
             world.insert_resource(log);
         }
+        if corrector_may_predict_ahead(&world) {
+            world.insert_resource(PredictAhead::default());
+        }
         let (step_schedule, step_systems) = build_schedule(&world, Phase::Step, OUTPUT_ENTRIES);
         let (startup_schedule, _) = build_schedule(&world, Phase::Startup, &[]);
         Ok(Self {
@@ -140,9 +143,25 @@ impl Simulation {
         }
     }
 
-    /// One DEM step.
+    /// One DEM step; afterwards the particles hold the corrected state of its end.
     pub fn step(&mut self) {
+        self.step_predicting_ahead(false);
+    }
+
+    /// One DEM step in which, with `ahead` and a world that has [`PredictAhead`], the Gear
+    /// corrector also predicts the next step, unless the particle writer reads the state
+    /// at the end of this one.
+    pub fn step_predicting_ahead(&mut self, ahead: bool) {
         self.start();
+        let clock = *self.world.resource::<SimClock>();
+        let end = (clock.step + 1) as f64 * clock.dt;
+        let written = self
+            .world
+            .get_resource::<ParticleOutput>()
+            .is_some_and(|out| out.due(end, clock.dt));
+        if let Some(mut predict) = self.world.get_resource_mut::<PredictAhead>() {
+            predict.allowed = ahead && !written;
+        }
         self.step_schedule.run(&mut self.world);
     }
 
@@ -184,7 +203,8 @@ impl Simulation {
         let mut failure = None;
         for k in 0..steps {
             particle_steps += self.world.resource::<Particles>().len() as f64;
-            self.step();
+            // The last step leaves the corrected state (for the summary and the last frame).
+            self.step_predicting_ahead(k + 1 < steps);
             if let Some(f) = self.failure() {
                 failure = Some(f);
                 break;

@@ -23,6 +23,20 @@ pub struct GearState {
     pub snap: Columns,
     /// Corrector coefficient alpha_0: 19/120, or 19/90 when forces depend on velocity.
     pub alpha0: f64,
+    /// Rows 0..predicted_rows of `Particles::position` and `velocity` already hold this
+    /// step's prediction: the last corrector predicted ahead ([`PredictAhead`]). The
+    /// predictor moves the other rows and sets it back to 0.
+    pub predicted_rows: usize,
+}
+
+/// Leave for the Gear corrector to predict the next step's x and v in its own pass (one
+/// pass over the integrator state per step instead of two), set by the run loop before
+/// each step. The world has it only when no system between the corrector and the next
+/// predictor changes the particle state or reads it on every step; the run loop grants
+/// it for a step unless a writer reads the state after it or the run ends with it.
+#[derive(Resource, Debug, Clone, Copy, Default)]
+pub struct PredictAhead {
+    pub allowed: bool,
 }
 
 impl PerParticle for GearState {

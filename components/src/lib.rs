@@ -28,7 +28,7 @@ pub use coupling::{CellMarkers, Coupling, ForceMethod, HydroForces, SphereRule};
 pub use fluid::{FluidFlow, FluidStats};
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
-pub use integrator::{GearState, IntegratorKind, VerletState};
+pub use integrator::{GearState, IntegratorKind, PredictAhead, VerletState};
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
 pub use neighbour::{
     ContactHistory, NeighbourSettings, PairList, Reorder, ScatterPlan, StepMotion, VerletList,

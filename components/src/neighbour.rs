@@ -55,12 +55,21 @@ pub struct VerletList {
     pub motion_bound: f64,
 }
 
-/// Largest change of any position coordinate in this step, |dx_d| over particles and
-/// d, as reported by the integrator (sqrt(3) times it bounds every displacement).
-/// `None` until an integrator reports.
+/// Bound of the change of any position coordinate since the neighbour list last looked,
+/// max |dx_d| over particles and d, summed over the moves the integrators report (the
+/// corrector's move of one step and the predictor's of the next; sqrt(3) times it bounds
+/// every displacement). `None` when no integrator has reported since: the list then
+/// assumes any motion.
 #[derive(Resource, Debug, Clone, Copy, Default)]
 pub struct StepMotion {
     pub max_component: Option<f64>,
+}
+
+impl StepMotion {
+    /// An integrator moved every coordinate by at most `largest`.
+    pub fn add(&mut self, largest: f64) {
+        self.max_component = Some(self.max_component.unwrap_or(0.0) + largest);
+    }
 }
 
 impl VerletList {

@@ -21,7 +21,7 @@ pub fn verlet_list(
     settings: Res<NeighbourSettings>,
     mut reorder: ResMut<Reorder>,
     history: Option<ResMut<ContactHistory>>,
-    motion: Res<StepMotion>,
+    mut motion: ResMut<StepMotion>,
 ) {
     let _span = tracing::info_span!("verlet_list").entered();
     reorder.perm = None;
@@ -31,6 +31,7 @@ pub fn verlet_list(
     // all positions) until the bound itself reaches skin/2.
     let step_motion = motion
         .max_component
+        .take()
         .map_or(f64::INFINITY, |m| 3f64.sqrt() * m);
     list.motion_bound += step_motion;
     let mut stale = list.stale || list.reference[0].len() != n;

@@ -64,7 +64,7 @@ pub fn verlet_predict(
         fastest = fastest.max(column_fastest);
     }
     // |dx_d| = dt |v_d(t + dt/2)|, rounded up by a relative 1e-12 for the products.
-    motion.max_component = Some(dt * fastest * (1.0 + 1e-12));
+    motion.add(dt * fastest * (1.0 + 1e-12));
 }
 
 pub fn verlet_correct(
