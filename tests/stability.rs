@@ -274,3 +274,48 @@ fn check_warns_below_the_rayleigh_step_and_unstable_runs_stop_cleanly() {
         refused.stderr
     );
 }
+
+/// A non-finite position or velocity stops the run at the step it appears in and names
+/// the particle, whichever pass finds it: the monitor's own pass (velocity Verlet), or the
+/// Gear corrector's bound on what it leaves (with and without predicting the next step in
+/// the same pass), which spares the monitor its pass only while everything is finite.
+#[test]
+fn a_non_finite_state_stops_the_run_naming_the_step_and_the_particle() {
+    for (integrator, ahead) in [("gear", false), ("gear", true), ("velocity_verlet", false)] {
+        for column in ["position", "velocity"] {
+            let mut text = header(1e-7).replacen(
+                "end_time = 1.0\n",
+                &format!("end_time = 1.0\nintegrator = \"{integrator}\"\n"),
+                1,
+            );
+            for x in [0.003, 0.006, 0.009] {
+                text += &format!(
+                    "\n[[spheres]]\nmaterial = \"grain\"\nradius = {R}\nposition = [{x}, {x}, 0.01]\n"
+                );
+            }
+            let mut sim = simulation(&text, "non_finite.toml");
+            for _ in 0..3 {
+                sim.step_predicting_ahead(ahead);
+            }
+            assert!(
+                sim.failure().is_none(),
+                "{integrator}: failed before the NaN"
+            );
+            let i = row(&sim, 1);
+            let mut particles = sim.world.resource_mut::<Particles>();
+            match column {
+                "position" => particles.position[2][i] = f64::NAN,
+                _ => particles.velocity[0][i] = f64::NAN,
+            }
+            sim.step_predicting_ahead(ahead);
+            let failure = sim.failure().unwrap_or_else(|| {
+                panic!("{integrator} (ahead {ahead}): a NaN {column} did not stop the run")
+            });
+            assert!(
+                failure.contains("unstable at step 4")
+                    && failure.contains("particle 1 has a non-finite position or velocity"),
+                "{integrator} (ahead {ahead}), NaN {column}: {failure}"
+            );
+        }
+    }
+}

@@ -11,6 +11,10 @@ pub struct RunHealth {
     pub run_max_overlap_ratio: f64,
     /// Overlap ratio above which the run is declared unstable.
     pub overlap_limit: f64,
+    /// Set by an integrator whose own pass found every position and velocity it left
+    /// finite, well below overflow: the monitor then skips its pass over them (and clears
+    /// it).
+    pub state_found_finite: bool,
     /// Stable id of a particle whose state is not finite after the corrector, if any.
     pub non_finite_particle: Option<u32>,
     /// Set by the monitor: why the run must stop.

@@ -23,7 +23,7 @@
 //! corrector sets |b|, |c| < 1e-150 (in SI units: physically nil) to zero.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    BodyAcceleration, GearState, Particles, PredictAhead, SimClock, StepMotion,
+    BodyAcceleration, GearState, Particles, PredictAhead, RunHealth, SimClock, StepMotion,
 };
 use rayon::prelude::*;
 
@@ -78,13 +78,16 @@ pub fn gear_predict(
 
 /// The corrector; with [`PredictAhead`] granted, also the next step's predictor on each
 /// corrected row, in the same pass (the same arithmetic as [`gear_predict`], so the
-/// results do not change).
+/// results do not change). The pass also bounds the positions and velocities it leaves,
+/// which spares the monitor its own pass over them when they are finite
+/// ([`RunHealth::state_found_finite`]).
 pub fn gear_correct(
     mut particles: ResMut<Particles>,
     mut gear: ResMut<GearState>,
     clock: Res<SimClock>,
     body: Res<BodyAcceleration>,
     mut motion: ResMut<StepMotion>,
+    mut health: ResMut<RunHealth>,
     predict_ahead: Option<Res<PredictAhead>>,
 ) {
     let ahead = predict_ahead.is_some_and(|p| p.allowed);
@@ -104,10 +107,11 @@ pub fn gear_correct(
         material,
         ..
     } = &mut *particles;
-    let (mut largest, mut largest_ahead) = (0.0f64, 0.0f64);
+    let mut all = Largest::default();
+    let mut largest = 0.0f64;
     for d in 0..3 {
         let g = body_acceleration_column(&body, d);
-        let (column_largest, column_ahead) = (
+        let (column_largest, column) = (
             position[d].par_chunks_mut(CHUNK),
             velocity[d].par_chunks_mut(CHUNK),
             acc[d].par_chunks_mut(CHUNK),
@@ -124,7 +128,7 @@ pub fn gear_correct(
                 // One monomorphised loop per kind of body force and per pass, each with
                 // the rows inlined (a closure called from two loops was not, and lost
                 // the vector code).
-                let (delta, dx) = match (&g, ahead) {
+                let chunk = match (&g, ahead) {
                     (BodyColumn::Uniform(g), false) => {
                         correct_chunk::<false>(rows, f, im, |_| *g, k)
                     }
@@ -136,18 +140,47 @@ pub fn gear_correct(
                         correct_chunk::<true>(rows, f, im, |i| g[m[i] as usize], k)
                     }
                 };
-                (cx * f64::from_bits(delta), f64::from_bits(dx))
+                (cx * f64::from_bits(chunk.delta), chunk)
             })
-            .reduce(|| (0.0, 0.0), |p, q| (p.0.max(q.0), p.1.max(q.1)));
+            .reduce(
+                || (0.0, Largest::default()),
+                |p, q| (p.0.max(q.0), p.1.max(q.1)),
+            );
         largest = largest.max(column_largest);
-        largest_ahead = largest_ahead.max(column_ahead);
+        all = all.max(column);
     }
     // This move and the next predictor's add (triangle inequality), in the order of the
     // two passes.
     motion.add(largest * (1.0 + 1e-12));
     if ahead {
-        motion.add(largest_ahead * (1.0 + 1e-12));
+        motion.add(f64::from_bits(all.ahead) * (1.0 + 1e-12));
         gear.predicted_rows = particles.len();
+    }
+    // Below these bounds every sum of the monitor's check is finite (3 v^2 + 3 |x| <
+    // 1e301); NaN fails the comparisons.
+    health.state_found_finite =
+        f64::from_bits(all.position) < 1e300 && f64::from_bits(all.velocity) < 1e150;
+}
+
+/// Bits of the largest absolute values of a corrector pass (non-negative floats order
+/// like their bits; NaN above all): |Delta|, the predicted |dx| (0 without predicting
+/// ahead), and |x| and |v| as the pass leaves them.
+#[derive(Debug, Clone, Copy, Default)]
+struct Largest {
+    delta: u64,
+    ahead: u64,
+    position: u64,
+    velocity: u64,
+}
+
+impl Largest {
+    fn max(self, o: Self) -> Self {
+        Self {
+            delta: self.delta.max(o.delta),
+            ahead: self.ahead.max(o.ahead),
+            position: self.position.max(o.position),
+            velocity: self.velocity.max(o.velocity),
+        }
     }
 }
 
@@ -197,8 +230,7 @@ impl CorrectorCoefficients {
 }
 
 /// The corrector on the rows (x, v, a, b, c) of one chunk towards the accelerations
-/// F/m + `body(i)`; with `AHEAD` also the next predictor on every corrected row. Returns
-/// the bits of the largest |Delta| and of the largest predicted |dx| (0 without `AHEAD`).
+/// F/m + `body(i)`; with `AHEAD` also the next predictor on every corrected row.
 #[inline(always)]
 fn correct_chunk<const AHEAD: bool>(
     [x, v, a, b, c]: [&mut [f64]; 5],
@@ -206,7 +238,7 @@ fn correct_chunk<const AHEAD: bool>(
     inv_mass: &[f64],
     body: impl Fn(usize) -> f64,
     (k, steps): (&CorrectorCoefficients, [f64; 4]),
-) -> (u64, u64) {
+) -> Largest {
     let n = x.len();
     let (v, a, b, c, f, im) = (
         &mut v[..n],
@@ -216,17 +248,19 @@ fn correct_chunk<const AHEAD: bool>(
         &force[..n],
         &inv_mass[..n],
     );
-    let (mut largest, mut largest_ahead) = (0u64, 0u64);
+    let mut largest = Largest::default();
     for i in 0..n {
         let row = [&mut x[i], &mut v[i], &mut a[i], &mut b[i], &mut c[i]];
         let delta = correct_row(row, f[i] * im[i] + body(i), k);
-        largest = largest.max(delta.abs().to_bits());
+        largest.delta = largest.delta.max(delta.abs().to_bits());
         if AHEAD {
             let dx = predict_row([&mut x[i], &mut v[i]], a[i], b[i], c[i], steps);
-            largest_ahead = largest_ahead.max(dx.abs().to_bits());
+            largest.ahead = largest.ahead.max(dx.abs().to_bits());
         }
+        largest.position = largest.position.max(x[i].abs().to_bits());
+        largest.velocity = largest.velocity.max(v[i].abs().to_bits());
     }
-    (largest, largest_ahead)
+    largest
 }
 
 /// The corrector on one row (x, v, a, b, c) towards the acceleration `target` = F/m + g,

@@ -15,8 +15,9 @@ pub fn advance_clock(mut clock: ResMut<SimClock>) {
 }
 
 /// The first non-finite particle and the failure verdict. Every step reads positions and
-/// velocities once; the kinetic energy, wanted only in the run summary, is computed there
-/// ([`kinetic_energy`]).
+/// velocities once, unless the integrator found them finite in its own pass
+/// (`RunHealth::state_found_finite`, the Gear corrector); the kinetic energy, wanted only
+/// in the run summary, is computed there ([`kinetic_energy`]).
 pub fn stability_monitor(
     particles: Res<Particles>,
     clock: Res<SimClock>,
@@ -26,8 +27,14 @@ pub fn stability_monitor(
     let [x, y, z] = &particles.position;
     let [vx, vy, vz] = &particles.velocity;
     let n = particles.len();
-    // The first non-finite row of each chunk, in chunk order.
-    let first_bad = (0..n.div_ceil(CHUNK))
+    // The first non-finite row of each chunk, in chunk order (none when the integrator
+    // has checked already).
+    let chunks = if std::mem::take(&mut health.state_found_finite) {
+        0
+    } else {
+        n.div_ceil(CHUNK)
+    };
+    let first_bad = (0..chunks)
         .into_par_iter()
         .map(|c| {
             let range = c * CHUNK..((c + 1) * CHUNK).min(n);
