@@ -245,58 +245,79 @@ fn contact_laws_with_history_do_not_change_a_bit() {
     assert_identical(&one, &two, "contact laws, --threads 1 against --threads 2");
 }
 
-/// The Gear corrector that also predicts the next step in its own pass (`PredictAhead`,
+/// The corrector that also predicts the next step in its own pass (`PredictAhead`,
 /// granted by the run loop for every step but the last and those whose end is written)
 /// does the predictor's arithmetic in the predictor's order: a run through the run loop
 /// and the same steps taken one at a time, never predicting ahead, write bitwise the same
-/// frames (with friction, so that the rotation integrator runs beside it). Tolerance: none
-/// (bit equality).
+/// frames, for Gear and velocity Verlet (with friction, so that the rotation integrator
+/// runs beside them). Tolerance: none (bit equality).
 #[test]
 fn predicting_ahead_in_the_corrector_does_not_change_a_bit() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let text = SCENE.replacen("restitution = 0.5", "restitution = 0.5\nfriction = 0.4", 1);
-    let path = Path::new("determinism-ahead.toml");
-    let build = |out: &Path| {
-        let scene = grainflow::scene::parse(&text, path, &[]).expect("scene parses");
-        let interval = scene.simulation.output_interval;
-        grainflow::run::Simulation::new(scene, path, Some((out, interval))).expect("builds")
-    };
-    let steps = 600;
-    let mut ahead = build(&dir.path().join("ahead"));
-    let report = ahead.run(steps);
-    assert!(report.failure.is_none(), "run failed: {:?}", report.failure);
-    let mut one_by_one = build(&dir.path().join("one-by-one"));
-    for _ in 0..steps {
-        one_by_one.step();
-    }
-    // The last frame, as the run loop writes it.
-    assert!(one_by_one.run(0).failure.is_none());
-
-    // Not vacuous: this world lets the corrector predict ahead, and it does.
-    let mut probe = simulation(&text, "determinism-ahead.toml");
-    probe.step_predicting_ahead(true);
-    let n = probe
-        .world
-        .resource::<grainflow_components::Particles>()
-        .len();
-    let predicted = probe
-        .world
-        .resource::<grainflow_components::GearState>()
-        .predicted_rows;
-    assert_eq!(predicted, n, "the corrector did not predict ahead");
-
-    let a = read_h5(&dir.path().join("ahead/particles.h5"));
-    let b = read_h5(&dir.path().join("one-by-one/particles.h5"));
-    let frames = a.keys().filter(|k| k.ends_with("/position")).count();
-    assert!(frames >= 10, "only {frames} frames written");
-    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    for (key, bits) in &a {
-        if let Some(k) = (0..bits.len()).find(|&k| bits[k] != b[key][k]) {
-            panic!(
-                "{key} differs first at element {k}: {:e} predicting ahead, {:e} not",
-                f64::from_bits(bits[k]),
-                f64::from_bits(b[key][k])
+    for integrator in ["gear", "velocity_verlet"] {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let text = SCENE
+            .replacen("restitution = 0.5", "restitution = 0.5\nfriction = 0.4", 1)
+            .replacen(
+                "end_time = 1.0\n",
+                &format!("end_time = 1.0\nintegrator = \"{integrator}\"\n"),
+                1,
             );
+        let path = Path::new("determinism-ahead.toml");
+        let build = |out: &Path| {
+            let scene = grainflow::scene::parse(&text, path, &[]).expect("scene parses");
+            let interval = scene.simulation.output_interval;
+            grainflow::run::Simulation::new(scene, path, Some((out, interval))).expect("builds")
+        };
+        let steps = 600;
+        let mut ahead = build(&dir.path().join("ahead"));
+        let report = ahead.run(steps);
+        assert!(report.failure.is_none(), "run failed: {:?}", report.failure);
+        let mut one_by_one = build(&dir.path().join("one-by-one"));
+        for _ in 0..steps {
+            one_by_one.step();
+        }
+        // The last frame, as the run loop writes it.
+        assert!(one_by_one.run(0).failure.is_none());
+
+        // Not vacuous: this world lets the corrector predict ahead, and it does.
+        let mut probe = simulation(&text, "determinism-ahead.toml");
+        probe.step_predicting_ahead(true);
+        let n = probe
+            .world
+            .resource::<grainflow_components::Particles>()
+            .len();
+        let predicted = match integrator {
+            "gear" => {
+                probe
+                    .world
+                    .resource::<grainflow_components::GearState>()
+                    .predicted_rows
+            }
+            _ => {
+                probe
+                    .world
+                    .resource::<grainflow_components::VerletState>()
+                    .predicted_rows
+            }
+        };
+        assert_eq!(
+            predicted, n,
+            "{integrator}: the corrector did not predict ahead"
+        );
+
+        let a = read_h5(&dir.path().join("ahead/particles.h5"));
+        let b = read_h5(&dir.path().join("one-by-one/particles.h5"));
+        let frames = a.keys().filter(|k| k.ends_with("/position")).count();
+        assert!(frames >= 10, "only {frames} frames written");
+        assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+        for (key, bits) in &a {
+            if let Some(k) = (0..bits.len()).find(|&k| bits[k] != b[key][k]) {
+                panic!(
+                    "{integrator}: {key} differs first at element {k}: {:e} predicting ahead, {:e} not",
+                    f64::from_bits(bits[k]),
+                    f64::from_bits(b[key][k])
+                );
+            }
         }
     }
 }

@@ -29,9 +29,9 @@ pub struct GearState {
     pub predicted_rows: usize,
 }
 
-/// Leave for the Gear corrector to predict the next step's x and v in its own pass (one
-/// pass over the integrator state per step instead of two), set by the run loop before
-/// each step. The world has it only when no system between the corrector and the next
+/// Leave for the corrector (Gear or velocity Verlet) to predict the next step's x and v
+/// in its own pass (one pass over the integrator state per step instead of two), set by
+/// the run loop before each step. The world has it only when no system between the corrector and the next
 /// predictor changes the particle state or reads it on every step; the run loop grants
 /// it for a step unless a writer reads the state after it or the run ends with it.
 #[derive(Resource, Debug, Clone, Copy, Default)]
@@ -72,6 +72,8 @@ impl PerParticle for GearState {
 #[derive(Resource, Debug, Clone, Default)]
 pub struct VerletState {
     pub half_velocity: Columns,
+    /// Rows 0..predicted_rows already hold this step's prediction (as in [`GearState`]).
+    pub predicted_rows: usize,
 }
 
 impl PerParticle for VerletState {

@@ -445,13 +445,13 @@ pub const REGISTRY: &[SystemEntry] = &[
     },
 ];
 
-/// Whether the Gear corrector may predict the next step in its own pass
+/// Whether the corrector may predict the next step in its own pass
 /// ([`grainflow_components::PredictAhead`]) in `world`: no system between the corrector and the next predictor
 /// may change the particle state or read it on every step. So no inflow (it inserts rows
 /// among particles it looks at), no held particles (put back on their path after the
 /// corrector) and no fluid coupling (its recorder reads the particles every step).
 pub fn corrector_may_predict_ahead(world: &World) -> bool {
-    uses_gear(world) && !inflow::has_inflow(world) && !has_clamped(world) && !has_coupling(world)
+    has_dem(world) && !inflow::has_inflow(world) && !has_clamped(world) && !has_coupling(world)
 }
 
 /// Build the step (or start-up) schedule for `world` from `REGISTRY` and the
