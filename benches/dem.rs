@@ -8,13 +8,15 @@
 //! against LAMMPS is measured by `scripts/bench-vs-lammps.sh`. The `friction_rolling`
 //! entries run the same packing with Coulomb friction (mu_s = 0.5) and rolling
 //! resistance (mu_r = 0.1): the contact system with history (`granular_contact`) and the
-//! rotation integrator, against the frictionless `hertz_contact` path.
+//! rotation integrator, against the frictionless `hertz_contact` path. The
+//! `predicting_ahead` entries run the integrators as the run loop does (`PredictAhead`):
+//! the corrector also predicts the next step, in the same pass.
 use std::path::Path;
 
 use bevy_ecs::system::RunSystemOnce;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use grainflow::run::Simulation;
-use grainflow_components::{Particles, VerletList};
+use grainflow_components::{IntegratorKind, Particles, PredictAhead, VerletList};
 use grainflow_systems::{gear, granular, hertz, neighbour_list, verlet};
 
 /// The material lines that turn friction and rolling resistance on.
@@ -55,6 +57,24 @@ count = 50000
     sim
 }
 
+/// One step of the integrator alone as the run loop has it (`PredictAhead` granted): the
+/// predictor, which skips the rows the last corrector predicted, and the corrector, which
+/// predicts the next step in its own pass.
+fn integrate_predicting_ahead(sim: &mut Simulation, integrator: IntegratorKind) {
+    sim.world.resource_mut::<PredictAhead>().allowed = true;
+    let world = &mut sim.world;
+    match integrator {
+        IntegratorKind::Gear => {
+            world.run_system_once(gear::gear_predict).unwrap();
+            world.run_system_once(gear::gear_correct).unwrap();
+        }
+        IntegratorKind::VelocityVerlet => {
+            world.run_system_once(verlet::verlet_predict).unwrap();
+            world.run_system_once(verlet::verlet_correct).unwrap();
+        }
+    }
+}
+
 fn bench(c: &mut Criterion) {
     for threads in [1, 2] {
         // The work runs inside the pool; criterion's timer stays on this thread.
@@ -88,9 +108,16 @@ fn bench(c: &mut Criterion) {
                 })
             })
         });
+        group.bench_function(BenchmarkId::new("gear_correct_predicting_ahead", n), |b| {
+            b.iter(|| pool.install(|| integrate_predicting_ahead(&mut sim, IntegratorKind::Gear)))
+        });
         group.bench_function(BenchmarkId::new("full_step_gear", n), |b| {
             b.iter(|| pool.install(|| sim.step()))
         });
+        group.bench_function(
+            BenchmarkId::new("full_step_gear_predicting_ahead", n),
+            |b| b.iter(|| pool.install(|| sim.step_predicting_ahead(true))),
+        );
         let mut sim = pool.install(|| dense_block("gear", FRICTION_ROLLING));
         group.bench_function(
             BenchmarkId::new("contact_forces_friction_rolling", n),
@@ -117,9 +144,23 @@ fn bench(c: &mut Criterion) {
                 })
             })
         });
+        group.bench_function(
+            BenchmarkId::new("verlet_correct_predicting_ahead", n),
+            |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        integrate_predicting_ahead(&mut sim, IntegratorKind::VelocityVerlet)
+                    })
+                })
+            },
+        );
         group.bench_function(BenchmarkId::new("full_step_verlet", n), |b| {
             b.iter(|| pool.install(|| sim.step()))
         });
+        group.bench_function(
+            BenchmarkId::new("full_step_verlet_predicting_ahead", n),
+            |b| b.iter(|| pool.install(|| sim.step_predicting_ahead(true))),
+        );
         group.finish();
     }
 }
