@@ -5,7 +5,8 @@
 //!
 //! 1. `Events`: walls removed at their time, particles inserted by inflows
 //! 2. `SyncRows`: per-particle blocks grown to the particle count
-//! 3. `Predict`: integrator predictor (Gear: Taylor step of all derivatives)
+//! 3. `Predict`: integrator predictor (Gear: Taylor step of x and v); it skips the rows
+//!    that the last corrector predicted already (below)
 //! 4. `NeighbourList`: cell index + half Verlet list, rebuilt when a particle may have
 //!    moved skin/2; particles re-sorted in cell order; wall candidate lists
 //! 5. `Reorder`: every other per-particle block follows the re-sort
@@ -22,7 +23,9 @@
 //!    to the contact forces (`hydrodynamic_sampling`)
 //! 10. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation
 //!     under contact torques; the clock; kinematic (fixed) particles put back on their
-//!     path
+//!     path. When the run loop grants `PredictAhead` (see
+//!     [`corrector_may_predict_ahead`]), the translation corrector also runs the next
+//!     step's predictor on each row in the same pass
 //! 11. `Monitor`: stability checks (overlap, non-finite state)
 //! 12. `Output`: writers (added by the application)
 //!
