@@ -119,6 +119,15 @@ fn check(args: CheckArgs) -> ExitCode {
         scene.simulation.end_time,
         (scene.simulation.end_time / dt).round()
     );
+    if sim
+        .world
+        .contains_resource::<grainflow_components::PredictAhead>()
+    {
+        let _ = writeln!(
+            out,
+            "           the corrector also predicts the next step in its pass (not in the last step, nor in steps whose end is written)"
+        );
+    }
     let _ = writeln!(out, "schedule (one step, in order):");
     let mut last = None;
     for (set, name) in &sim.step_systems {

@@ -2,7 +2,8 @@
 //! values, particles inside the walls, a stable time step), and the dense state of the
 //! small hopper has the walls of that hopper, the benchmark hopper of
 //! `shared/bench/lammps-hopper` scaled by s = (20000/50000)^(1/3) (hopper_params.lmp:
-//! outlet radius 0.20 s at z = 0, 45-degree cone), not those of the 50,000-particle one.
+//! outlet radius 0.20 s at z = 0, 45-degree cone), not those of the 50,000-particle one;
+//! and `check` tells in which of them the corrector predicts ahead.
 use std::path::{Path, PathBuf};
 
 mod common;
@@ -76,4 +77,27 @@ fn small_dense_state_has_the_walls_of_the_small_hopper() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("outside wall `hopper cone`"), "{stderr}");
     assert_eq!(check(&large, &between).0, 0);
+}
+
+/// `grainflow check` says when the corrector predicts the next step in its own pass: in
+/// the benchmark states and the impact (nothing between the corrector and the next
+/// predictor changes or reads the particles every step), not with an inflow (the hopper
+/// fill), a held particle (the pendulums) or fluid coupling (the sedimentation).
+#[test]
+fn check_tells_where_the_corrector_predicts_ahead() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let data = two_spheres(dir.path(), 0.05);
+    let cases = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let line = "the corrector also predicts the next step in its pass";
+    for (case, ahead) in [
+        ("bench-hopper-loose.toml", true),
+        ("two-sphere-impact.toml", true),
+        ("hopper-fill-small.toml", false),
+        ("pendulum-rolling.toml", false),
+        ("sedimentation-single.toml", false),
+    ] {
+        let (code, stdout, stderr) = check(&cases.join(case), &data);
+        assert_eq!(code, 0, "{case}: {stderr}");
+        assert_eq!(stdout.contains(line), ahead, "{case}:\n{stdout}");
+    }
 }
