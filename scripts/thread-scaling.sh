@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Two-thread scaling of grainflow (the foundation issue asks 2 threads >= 1.8x one), taken
+# so that a shared, drifting machine hits both thread counts alike: the one-thread and the
+# two-thread run of a state alternate in pairs, each pair gives its own ratio, and after
+# every pair one round of the streaming probe (scripts/stream-scaling.sh) measures what two
+# cores give a memory-streaming loop in the same minute.
+#
+#   bash scripts/thread-scaling.sh                       # loose and dense, Gear, 5 pairs
+#   PAIRS=3 STATES=loose INTEGRATOR=velocity_verlet bash scripts/thread-scaling.sh
+#
+# Knobs: PAIRS [5], STATES ["loose dense"], INTEGRATOR [gear], STEPS [the case's own:
+# 20,000 loose, 3,000 dense], SHARED [../shared], WORK [/var/tmp/dem-peers] (the harness's
+# data files, prepared by shared/bench/lammps-hopper/run_lammps.sh the first time; LAMMPS:
+# apt-get install -y lammps openmpi-bin). Prints every pair, the median pair ratio, the
+# ratio of the medians, and the probe's median ratio for 16 MiB.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+SHARED=${SHARED:-$ROOT/../shared}
+HARNESS=$SHARED/bench/lammps-hopper
+WORK=${WORK:-/var/tmp/dem-peers}
+PAIRS=${PAIRS:-5}
+STATES=${STATES:-"loose dense"}
+INTEGRATOR=${INTEGRATOR:-gear}
+
+cd "$ROOT"
+cargo build --release --quiet
+BIN=$ROOT/target/release/grainflow
+OUT=$(mktemp -d)
+trap 'rm -rf "$OUT"' EXIT
+
+for state in $STATES; do
+  case $state in
+    loose | dense) scene=cases/bench-hopper-$state.toml ;;
+    *) echo "unknown state '$state' (expected loose or dense)" >&2; exit 2 ;;
+  esac
+  data=$WORK/${state}_50000.data
+  [[ -s $data ]] || WORK=$WORK STATES=$state REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
+  steps=()
+  [[ -n ${STEPS:-} ]] && steps=(--steps "$STEPS")
+  for pair in $(seq 1 "$PAIRS"); do
+    line="$state $pair"
+    for threads in 1 2; do
+      "$BIN" run "$scene" --threads "$threads" "${steps[@]}" --out "$OUT/t$threads" \
+        --set "lammps.0.file=$data" --set "simulation.integrator=$INTEGRATOR" >/dev/null 2>&1
+      rate=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["particle_steps_per_s"])' \
+        "$OUT/t$threads/summary.json")
+      line="$line $rate"
+    done
+    probe=$(bash scripts/stream-scaling.sh 1 | sed -n 's/.*16 MiB: \([0-9.]*\)x.*/\1/p')
+    echo "$line $probe" >> "$OUT/pairs.txt"
+  done
+done
+
+python3 - "$OUT/pairs.txt" "$INTEGRATOR" <<'EOF'
+import collections, statistics, sys
+pairs = collections.defaultdict(list)
+for line in open(sys.argv[1]):
+    state, _, one, two, probe = line.split()
+    pairs[state].append((float(one) / 1e6, float(two) / 1e6, float(probe)))
+print(f"# {sys.argv[2]}, M particle-steps/s; probe: two copies of a 16 MiB streaming loop at once")
+print("state  pair  1 thread  2 threads  2/1     probe")
+for state, rows in pairs.items():
+    for k, (one, two, probe) in enumerate(rows, 1):
+        print(f"{state:6s} {k:4d}  {one:8.2f}  {two:9.2f}  {two / one:.2f}x   {probe:.2f}x")
+    ones, twos = [r[0] for r in rows], [r[1] for r in rows]
+    print(f"{state:6s} median pair ratio {statistics.median(t / o for o, t, _ in rows):.2f}x, "
+          f"ratio of medians {statistics.median(twos) / statistics.median(ones):.2f}x, "
+          f"probe {statistics.median(r[2] for r in rows):.2f}x")
+EOF
