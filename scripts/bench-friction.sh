@@ -15,21 +15,13 @@
 # the first time. Prints the medians (with the range), their ratio, and the memory per
 # contact of the friction runs from summary.json.
 set -euo pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$ROOT/../shared}
-HARNESS=$SHARED/bench/lammps-hopper
-WORK=${WORK:-/var/tmp/dem-peers}
+source "$(dirname "$0")/bench-common.sh"
 REPS=${REPS:-7}
 STEPS=${STEPS:-1000}
 THREADS=${THREADS:-1}
 STATES=${STATES:-"small dense"}
 FRICTION=(--set materials.0.friction=0.5 --set materials.0.rolling_friction=0.1)
 
-cd "$ROOT"
-cargo build --release --quiet
-BIN=$ROOT/target/release/grainflow
-OUT=$(mktemp -d)
-trap 'rm -rf "$OUT"' EXIT
 
 for state in $STATES; do
   case $state in
@@ -37,8 +29,7 @@ for state in $STATES; do
     dense) n=50000; scene=cases/bench-hopper-dense.toml ;;
     *) echo "unknown state '$state' (expected small or dense)" >&2; exit 2 ;;
   esac
-  data=$WORK/dense_$n.data
-  [[ -s $data ]] || WORK=$WORK N=$n STATES=dense REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
+  data=$(benchmark_state dense "$n")
   for rep in $(seq 1 "$REPS"); do
     for kind in friction frictionless; do
       args=()

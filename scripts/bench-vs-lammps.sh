@@ -10,10 +10,7 @@
 # WORK [/var/tmp/dem-peers] (data files, logs). Needs: apt-get install -y lammps openmpi-bin.
 # Prints a table of particle-steps/s (medians) and the ratios to LAMMPS on 1 rank.
 set -euo pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$ROOT/../shared}
-HARNESS=$SHARED/bench/lammps-hopper
-WORK=${WORK:-/var/tmp/dem-peers}
+source "$(dirname "$0")/bench-common.sh"
 REPS=${REPS:-3}
 THREADS=${THREADS:-"1 2"}
 INTEGRATORS=${INTEGRATORS:-"gear velocity_verlet"}
@@ -23,9 +20,6 @@ LAMMPS_NPS=${LAMMPS_NPS:-1}
 source "$HARNESS/common.sh"
 
 mkdir -p "$WORK/logs"
-cd "$ROOT"
-cargo build --release --quiet
-BIN=$ROOT/target/release/grainflow
 
 if [[ $LAMMPS == 1 ]]; then
   WORK=$WORK STATES=$STATES NPS=$LAMMPS_NPS REPS=$REPS bash "$HARNESS/run_lammps.sh" | tee "$WORK/logs/lammps_last.txt"

@@ -14,27 +14,17 @@
 # apt-get install -y lammps openmpi-bin). Prints every pair, the median pair ratio, the
 # ratio of the medians, and the probe's median ratio for 16 MiB.
 set -euo pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
-SHARED=${SHARED:-$ROOT/../shared}
-HARNESS=$SHARED/bench/lammps-hopper
-WORK=${WORK:-/var/tmp/dem-peers}
+source "$(dirname "$0")/bench-common.sh"
 PAIRS=${PAIRS:-5}
 STATES=${STATES:-"loose dense"}
 INTEGRATOR=${INTEGRATOR:-gear}
-
-cd "$ROOT"
-cargo build --release --quiet
-BIN=$ROOT/target/release/grainflow
-OUT=$(mktemp -d)
-trap 'rm -rf "$OUT"' EXIT
 
 for state in $STATES; do
   case $state in
     loose | dense) scene=cases/bench-hopper-$state.toml ;;
     *) echo "unknown state '$state' (expected loose or dense)" >&2; exit 2 ;;
   esac
-  data=$WORK/${state}_50000.data
-  [[ -s $data ]] || WORK=$WORK STATES=$state REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
+  data=$(benchmark_state "$state" 50000)
   steps=()
   [[ -n ${STEPS:-} ]] && steps=(--steps "$STEPS")
   for pair in $(seq 1 "$PAIRS"); do
