@@ -148,7 +148,7 @@ impl Simulation {
         self.step_predicting_ahead(false);
     }
 
-    /// One DEM step in which, with `ahead` and a world that has [`PredictAhead`], the Gear
+    /// One DEM step in which, with `ahead` and a world that has [`PredictAhead`], the
     /// corrector also predicts the next step, unless the particle writer reads the state
     /// at the end of this one.
     pub fn step_predicting_ahead(&mut self, ahead: bool) {

@@ -31,9 +31,10 @@ pub struct GearState {
 
 /// Leave for the corrector (Gear or velocity Verlet) to predict the next step's x and v
 /// in its own pass (one pass over the integrator state per step instead of two), set by
-/// the run loop before each step. The world has it only when no system between the corrector and the next
-/// predictor changes the particle state or reads it on every step; the run loop grants
-/// it for a step unless a writer reads the state after it or the run ends with it.
+/// the run loop before each step. The world has it only when no system between the
+/// corrector and the next predictor changes the particle state or reads it on every step;
+/// the run loop grants it for a step unless a writer reads the state after it or the run
+/// ends with it.
 #[derive(Resource, Debug, Clone, Copy, Default)]
 pub struct PredictAhead {
     pub allowed: bool,

@@ -27,6 +27,7 @@ use grainflow_components::{
 };
 use rayon::prelude::*;
 
+use crate::monitor::state_is_finite;
 use crate::{body_acceleration_column, BodyColumn, CHUNK};
 
 pub fn gear_predict(
@@ -156,10 +157,7 @@ pub fn gear_correct(
         motion.add(f64::from_bits(all.ahead) * (1.0 + 1e-12));
         gear.predicted_rows = particles.len();
     }
-    // Below these bounds every sum of the monitor's check is finite (3 v^2 + 3 |x| <
-    // 1e301); NaN fails the comparisons.
-    health.state_found_finite =
-        f64::from_bits(all.position) < 1e300 && f64::from_bits(all.velocity) < 1e150;
+    health.state_found_finite = state_is_finite(all.position, all.velocity);
 }
 
 /// Bits of the largest absolute values of a corrector pass (non-negative floats order

@@ -17,6 +17,7 @@ use grainflow_components::{
 };
 use rayon::prelude::*;
 
+use crate::monitor::state_is_finite;
 use crate::{body_acceleration_column, BodyColumn, CHUNK};
 
 pub fn verlet_predict(
@@ -136,9 +137,7 @@ pub fn verlet_correct(
         // As the predictor reports it.
         motion.add(dt * f64::from_bits(all.half_velocity) * (1.0 + 1e-12));
         state.predicted_rows = particles.len();
-        // Below these bounds every sum of the monitor's check is finite; NaN fails them.
-        health.state_found_finite =
-            f64::from_bits(all.position) < 1e300 && f64::from_bits(all.velocity) < 1e150;
+        health.state_found_finite = state_is_finite(all.position, all.velocity);
     }
 }
 
