@@ -8,6 +8,7 @@
 //! integer reduction vectorises where `f64::max` (with its NaN rule) would not.
 
 pub mod clamp;
+pub mod compressed_rows;
 pub mod fictitious;
 pub mod fluid;
 pub mod friction;
@@ -107,17 +108,12 @@ impl<'a> Rows<'a> {
 /// entries `start[i]..start[i+1]`) into the ranges of consecutive chunks of `CHUNK` rows,
 /// for `n` rows.
 pub fn row_chunks<'a, T>(
-    mut values: &'a mut [T],
+    values: &'a mut [T],
     start: &[u32],
     n: usize,
     width: usize,
 ) -> Vec<&'a mut [T]> {
-    let mut out = Vec::with_capacity(n.div_ceil(CHUNK));
-    for c in 0..n.div_ceil(CHUNK) {
-        let len = (start[((c + 1) * CHUNK).min(n)] - start[c * CHUNK]) as usize * width;
-        let (head, tail) = std::mem::take(&mut values).split_at_mut(len);
-        out.push(head);
-        values = tail;
-    }
-    out
+    let lengths = (0..n.div_ceil(CHUNK))
+        .map(|c| (start[((c + 1) * CHUNK).min(n)] - start[c * CHUNK]) as usize * width);
+    compressed_rows::split_lengths(values, lengths)
 }

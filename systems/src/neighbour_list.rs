@@ -12,6 +12,7 @@ use grainflow_components::{
 };
 use rayon::prelude::*;
 
+use crate::compressed_rows::{join_rows, reverse_index};
 use crate::{row_chunks, CHUNK};
 
 /// Rebuild the Verlet list when needed, re-sorting particles in cell order.
@@ -149,57 +150,18 @@ fn whole_rows(list: &mut VerletList, skin: f64) {
 /// partner, ascending pair index within each partner.
 fn index_near_pairs(list: &mut VerletList) {
     let n = list.near_end.len();
-    let near = (0..n).flat_map(|i| list.start[i]..list.near_end[i]);
-    let (rev_start, rev_pairs) = reverse_index(n, near.map(|k| (k, list.neighbours[k as usize])));
-    list.rev_owner = rev_pairs.iter().map(|&k| list.owner[k as usize]).collect();
+    let VerletList {
+        start,
+        near_end,
+        neighbours,
+        owner,
+        ..
+    } = &*list;
+    let near = (0..n).flat_map(|i| start[i]..near_end[i]);
+    let (rev_start, rev_pairs) = reverse_index(n, near.map(|k| (k, neighbours[k as usize])));
+    list.rev_owner = rev_pairs.par_iter().map(|&k| owner[k as usize]).collect();
     list.rev_start = rev_start;
     list.rev_pairs = rev_pairs;
-}
-
-/// A reverse index by partner (a counting sort): for pairs `(k, j)`, pair `k` with
-/// partner `j < n`, given in ascending `k`, `rev_pairs[rev_start[j]..rev_start[j + 1]]`
-/// are the pairs of partner `j`, ascending.
-fn reverse_index(
-    n: usize,
-    pairs: impl Iterator<Item = (u32, u32)> + Clone,
-) -> (Vec<u32>, Vec<u32>) {
-    let mut rev_start = vec![0u32; n + 1];
-    for (_, j) in pairs.clone() {
-        rev_start[j as usize + 1] += 1;
-    }
-    for p in 0..n {
-        rev_start[p + 1] += rev_start[p];
-    }
-    let mut fill = rev_start.clone();
-    let mut rev_pairs = vec![0; rev_start[n] as usize];
-    for (k, j) in pairs {
-        rev_pairs[fill[j as usize] as usize] = k;
-        fill[j as usize] += 1;
-    }
-    (rev_start, rev_pairs)
-}
-
-/// Chunks of consecutive rows (each chunk's partners in row order, and its rows' lengths)
-/// joined into compressed rows: row starts, owners and partners, allocated at their exact
-/// sizes (no growth by doubling: the lists are most of the memory per particle beside the
-/// particle state).
-fn join_rows<'a>(
-    chunks: impl Iterator<Item = (&'a [u32], &'a [u32])> + Clone,
-) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
-    let rows: usize = chunks.clone().map(|(_, counts)| counts.len()).sum();
-    let pairs: usize = chunks.clone().map(|(nbrs, _)| nbrs.len()).sum();
-    let mut start = Vec::with_capacity(rows + 1);
-    let mut owner = Vec::with_capacity(pairs);
-    let mut neighbours = Vec::with_capacity(pairs);
-    start.push(0);
-    for (nbrs, counts) in chunks {
-        for &c in counts {
-            owner.extend(std::iter::repeat_n(start.len() as u32 - 1, c as usize));
-            start.push(owner.len() as u32);
-        }
-        neighbours.extend_from_slice(nbrs);
-    }
-    (start, owner, neighbours)
 }
 
 /// Rebuild the list from the cell index, re-sorting the particles in cell order at every
@@ -236,8 +198,11 @@ fn rebuild(
         settings.skin,
         list,
     );
-    for d in 0..3 {
-        list.reference[d].clone_from(&particles.position[d]);
+    for (reference, position) in list.reference.iter_mut().zip(&particles.position) {
+        reference.resize(n, 0.0);
+        (reference.par_chunks_mut(CHUNK), position.par_chunks(CHUNK))
+            .into_par_iter()
+            .for_each(|(to, from)| to.copy_from_slice(from));
     }
     list.stale = false;
     list.builds += 1;
@@ -493,8 +458,11 @@ fn build_half_list(
         .collect();
     drop(scan);
     let _span = tracing::info_span!("list_index").entered();
-    (list.start, list.owner, list.neighbours) =
-        join_rows(rows.iter().map(|(nbrs, counts)| (&nbrs[..], &counts[..])));
+    let chunks: Vec<_> = rows
+        .iter()
+        .map(|(nbrs, counts)| (&nbrs[..], &counts[..]))
+        .collect();
+    (list.start, list.owner, list.neighbours) = join_rows(&chunks);
     whole_rows(list, skin);
 }
 
@@ -556,10 +524,11 @@ fn select_history_pairs(
             (nbrs, counts, from)
         })
         .collect();
-    let (start, owner, neighbours) = join_rows(
-        rows.iter()
-            .map(|(nbrs, counts, _)| (&nbrs[..], &counts[..])),
-    );
+    let chunks: Vec<_> = rows
+        .iter()
+        .map(|(nbrs, counts, _)| (&nbrs[..], &counts[..]))
+        .collect();
+    let (start, owner, neighbours) = join_rows(&chunks);
     let from: Vec<u32> = rows
         .iter()
         .flat_map(|(_, _, f)| f.iter().copied())

@@ -7,6 +7,7 @@ use grainflow_components::{
 use rayon::prelude::*;
 use wide::f64x4;
 
+use crate::compressed_rows::join_rows;
 use crate::real::{Real, V3};
 use crate::CHUNK;
 
@@ -260,24 +261,11 @@ pub fn wall_list(
             (ids, counts)
         })
         .collect();
-    let WallList {
-        start,
-        walls: ids,
-        particle,
-        built_for,
-    } = &mut *wall_list;
-    start.clear();
-    start.push(0);
-    ids.clear();
-    particle.clear();
-    let mut total = 0;
-    for (chunk_ids, counts) in rows {
-        for c in counts {
-            particle.extend(std::iter::repeat_n(start.len() as u32 - 1, c as usize));
-            total += c;
-            start.push(total);
-        }
-        ids.extend(chunk_ids);
-    }
-    *built_for = list.builds;
+    let chunks: Vec<_> = rows
+        .iter()
+        .map(|(ids, counts)| (&ids[..], &counts[..]))
+        .collect();
+    let wall_list = &mut *wall_list;
+    (wall_list.start, wall_list.particle, wall_list.walls) = join_rows(&chunks);
+    wall_list.built_for = list.builds;
 }
