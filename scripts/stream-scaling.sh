@@ -1,15 +1,21 @@
 #!/usr/bin/env bash
-# How much two cores of this machine can give a memory-streaming loop: runs one copy of
-# a streaming kernel (b[i] += c a[i] over two arrays, repeated) alone, then two copies at
-# once, and prints the aggregate speed-up 2 t_1 / t_2 for a 16 MiB working set (inside
-# the L3 of the machines we run on) and a 256 MiB one (DRAM). An upper bound, set by the
-# machine, for the two-thread scaling of grainflow's memory-bound passes (docs/performance.md).
+# What two cores of this machine give at all, without grainflow: the ceiling of the
+# two-thread / one-thread ratio of a pass, set by the machine (docs/performance.md).
+# Each probe does the same work once on one core, then split in two halves run at once
+# on two cores, and prints the speed-up t_1 / t_2 (t_2: the slower half):
+#   - 12 MiB: a streaming pass (b[i] += c a[i], vectorised as grainflow's passes are)
+#     over a working set of the size of the loose benchmark state (50,000 particles),
+#     which stays in the L3 cache: one core streams all of it, or two cores half each,
+#     as a parallel pass over one array does;
+#   - 256 MiB: the same from main memory;
+#   - compute: a vectorised multiply-add loop with no memory traffic (what two busy
+#     cores give compute-bound code: clock and power shared between them).
 # Usage: scripts/stream-scaling.sh [ROUNDS]   (needs gcc)
 set -euo pipefail
 rounds=${1:-5}
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-cat > "$dir/stream.c" <<'C'
+cat > "$dir/probe.c" <<'C'
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
@@ -18,28 +24,47 @@ static double now(void) {
     clock_gettime(CLOCK_MONOTONIC, &t);
     return t.tv_sec + 1e-9 * t.tv_nsec;
 }
+/* probe stream N REPS: REPS passes of b += c a over two arrays of N doubles.
+   probe compute REPS: REPS rounds of 16 independent multiply-adds, no memory. */
 int main(int argc, char **argv) {
-    long n = atol(argv[1]);
-    int reps = atoi(argv[2]);
-    double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
-    for (long i = 0; i < n; i++) { a[i] = (double)i; b[i] = 0.0; }
-    double t0 = now();
-    for (int r = 0; r < reps; r++)
-        for (long i = 0; i < n; i++) b[i] += 1.0001 * a[i];
-    printf("%.4f %g\n", now() - t0, b[n / 2]);
+    double t0, check = 0.0;
+    if (argv[1][0] == 's') {
+        long n = atol(argv[2]);
+        int reps = atoi(argv[3]);
+        double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
+        for (long i = 0; i < n; i++) { a[i] = (double)i; b[i] = 0.0; }
+        t0 = now();
+        for (int r = 0; r < reps; r++)
+            for (long i = 0; i < n; i++) b[i] += 1.0001 * a[i];
+        check = b[n / 2];
+    } else {
+        long reps = atol(argv[2]);
+        double x[16];
+        for (int k = 0; k < 16; k++) x[k] = 1.0 + k * 1e-9;
+        t0 = now();
+        for (long r = 0; r < reps; r++)
+            for (int k = 0; k < 16; k++) x[k] = x[k] * 0.9999999 + 1e-7;
+        for (int k = 0; k < 16; k++) check += x[k];
+    }
+    printf("%.4f %g\n", now() - t0, check);
     return 0;
 }
 C
-gcc -O2 -o "$dir/stream" "$dir/stream.c"
-one() { "$dir/stream" "$1" "$2" | cut -d' ' -f1; }
-two() { ( "$dir/stream" "$1" "$2" & "$dir/stream" "$1" "$2"; wait ) | awk '{s += $1} END {printf "%.4f", s / 2}'; }
+gcc -O3 -march=native -o "$dir/probe" "$dir/probe.c"
+# alone ARGS... / halves ARGS...: seconds of one run, and of the slower of two at once.
+alone() { "$dir/probe" "$@" | cut -d' ' -f1; }
+halves() { ( "$dir/probe" "$@" & "$dir/probe" "$@"; wait ) | awk '$1 > t {t = $1} END {printf "%.4f", t}'; }
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx (%.3f s one core, %.3f s two)", a / b, a, b}'; }
 for round in $(seq "$rounds"); do
     line="round $round:"
-    for set in "16 1048576 640" "256 16777216 40"; do
+    # MiB, doubles per array alone, passes
+    for set in "12 786432 2000" "256 16777216 60"; do
         read -r mib n reps <<< "$set"
-        t1=$(one "$n" "$reps")
-        t2=$(two "$n" "$reps")
-        line="$line  ${mib} MiB: $(awk -v a="$t1" -v b="$t2" 'BEGIN {printf "%.2fx (%.3f s alone, %.3f s two at once)", 2 * a / b, a, b}')"
+        t1=$(alone stream "$n" "$reps")
+        t2=$(halves stream $((n / 2)) "$reps")
+        line="$line  $mib MiB: $(ratio "$t1" "$t2")"
     done
-    echo "$line"
+    t1=$(alone compute 400000000)
+    t2=$(halves compute 200000000)
+    echo "$line  compute: $(ratio "$t1" "$t2")"
 done
