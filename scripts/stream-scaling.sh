@@ -9,7 +9,12 @@
 #     as a parallel pass over one array does;
 #   - 256 MiB: the same from main memory;
 #   - compute: a vectorised multiply-add loop with no memory traffic (what two busy
-#     cores give compute-bound code: clock and power shared between them).
+#     cores give compute-bound code: clock and power shared between them);
+#   - swapped halves: two threads stream the 12 MiB set in halves, passes separated by a
+#     barrier, once with each thread on its own half every pass and once with the halves
+#     swapping threads every pass: how much slower a pass gets when its rows were last
+#     written by the other core (why grainflow's passes keep one part per thread:
+#     systems/src/team.rs).
 # Usage: scripts/stream-scaling.sh [ROUNDS]   (needs gcc)
 set -euo pipefail
 rounds=${1:-5}
@@ -19,16 +24,55 @@ cat > "$dir/probe.c" <<'C'
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
+#include <pthread.h>
+#include <stdatomic.h>
 static double now(void) {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return t.tv_sec + 1e-9 * t.tv_nsec;
 }
+/* Two threads, REPS passes of b += c a over halves of two arrays of N doubles, a barrier
+   after each pass; SWAP: thread t takes half (t + pass) % 2 instead of half t. */
+static long pn;
+static int preps, pswap;
+static double *pa, *pb;
+static atomic_int arrived, generation;
+static void barrier(void) {
+    int g = atomic_load(&generation);
+    if (atomic_fetch_add(&arrived, 1) == 1) {
+        atomic_store(&arrived, 0);
+        atomic_fetch_add(&generation, 1);
+    } else {
+        while (atomic_load(&generation) == g) {}
+    }
+}
+static void *halves_worker(void *arg) {
+    long t = (long)arg;
+    for (int r = 0; r < preps; r++) {
+        long half = pswap ? (t + r) % 2 : t;
+        for (long i = half * pn / 2; i < (half + 1) * pn / 2; i++) pb[i] += 1.0001 * pa[i];
+        barrier();
+    }
+    return 0;
+}
 /* probe stream N REPS: REPS passes of b += c a over two arrays of N doubles.
-   probe compute REPS: REPS rounds of 16 independent multiply-adds, no memory. */
+   probe compute REPS: REPS rounds of 16 independent multiply-adds, no memory.
+   probe affinity N REPS SWAP: the two-thread passes above. */
 int main(int argc, char **argv) {
     double t0, check = 0.0;
-    if (argv[1][0] == 's') {
+    if (argv[1][0] == 'a') {
+        pn = atol(argv[2]);
+        preps = atoi(argv[3]);
+        pswap = atoi(argv[4]);
+        pa = malloc(pn * sizeof *pa);
+        pb = malloc(pn * sizeof *pb);
+        for (long i = 0; i < pn; i++) { pa[i] = (double)i; pb[i] = 0.0; }
+        pthread_t th[2];
+        t0 = now();
+        for (long t = 0; t < 2; t++) pthread_create(&th[t], 0, halves_worker, (void *)t);
+        for (int t = 0; t < 2; t++) pthread_join(th[t], 0);
+        check = pb[pn / 3];
+    } else if (argv[1][0] == 's') {
         long n = atol(argv[2]);
         int reps = atoi(argv[3]);
         double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
@@ -50,7 +94,7 @@ int main(int argc, char **argv) {
     return 0;
 }
 C
-gcc -O3 -march=native -o "$dir/probe" "$dir/probe.c"
+gcc -O3 -march=native -pthread -o "$dir/probe" "$dir/probe.c"
 # alone ARGS... / halves ARGS...: seconds of one run, and of the slower of two at once.
 alone() { "$dir/probe" "$@" | cut -d' ' -f1; }
 halves() { ( "$dir/probe" "$@" & "$dir/probe" "$@"; wait ) | awk '$1 > t {t = $1} END {printf "%.4f", t}'; }
@@ -66,5 +110,8 @@ for round in $(seq "$rounds"); do
     done
     t1=$(alone compute 400000000)
     t2=$(halves compute 200000000)
-    echo "$line  compute: $(ratio "$t1" "$t2")"
+    line="$line  compute: $(ratio "$t1" "$t2")"
+    fixed=$(alone affinity 786432 2000 0)
+    swapped=$(alone affinity 786432 2000 1)
+    echo "$line  swapped halves: $(awk -v a="$swapped" -v b="$fixed" 'BEGIN {printf "%.2fx slower (%.3f s against %.3f s)", a / b, a, b}')"
 done

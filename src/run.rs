@@ -186,6 +186,9 @@ impl Simulation {
     /// and plain log lines otherwise.
     pub fn run(&mut self, steps: u64) -> RunReport {
         let t0 = Instant::now();
+        // The pool's other threads spin between the passes of the steps instead of
+        // sleeping (systems/src/team.rs).
+        let awake = grainflow_systems::team::KeepAwake::start();
         self.start();
         let start_step = self.world.resource::<SimClock>().step;
         let bar = std::io::stderr().is_terminal().then(|| {
@@ -202,6 +205,7 @@ impl Simulation {
         let mut particle_steps = 0.0;
         let mut failure = None;
         for k in 0..steps {
+            awake.rearm();
             particle_steps += self.world.resource::<Particles>().len() as f64;
             // The last step leaves the corrected state (for the summary and the last frame).
             self.step_predicting_ahead(k + 1 < steps);

@@ -28,6 +28,7 @@ use grainflow_components::{
 use rayon::prelude::*;
 
 use crate::monitor::state_is_finite;
+use crate::team::StaticSplit;
 use crate::{body_acceleration_column, BodyColumn, CHUNK};
 
 pub fn gear_predict(
@@ -59,17 +60,20 @@ pub fn gear_predict(
             snap[d][start..].par_chunks(CHUNK),
         )
             .into_par_iter()
-            .map(|(x, v, a, b, c)| {
-                let n = x.len();
-                let (v, a, b, c) = (&mut v[..n], &a[..n], &b[..n], &c[..n]);
-                let mut largest = 0u64;
-                for k in 0..n {
-                    let dx = predict_row([&mut x[k], &mut v[k]], a[k], b[k], c[k], steps);
-                    largest = largest.max(dx.abs().to_bits());
-                }
-                f64::from_bits(largest)
-            })
-            .reduce(|| 0.0, f64::max);
+            .static_map_reduce(
+                |(x, v, a, b, c)| {
+                    let n = x.len();
+                    let (v, a, b, c) = (&mut v[..n], &a[..n], &b[..n], &c[..n]);
+                    let mut largest = 0u64;
+                    for k in 0..n {
+                        let dx = predict_row([&mut x[k], &mut v[k]], a[k], b[k], c[k], steps);
+                        largest = largest.max(dx.abs().to_bits());
+                    }
+                    f64::from_bits(largest)
+                },
+                || 0.0,
+                f64::max,
+            );
         largest = largest.max(column_largest);
     }
     // The corrector of the last step moved x too (by alpha_0 dt^2/2 Delta): its share is
@@ -108,28 +112,36 @@ pub fn gear_correct(
         material,
         ..
     } = &mut *particles;
-    let mut all = Largest::default();
-    let mut largest = 0.0f64;
-    for d in 0..3 {
-        let g = body_acceleration_column(&body, d);
-        let (column_largest, column) = (
-            position[d].par_chunks_mut(CHUNK),
-            velocity[d].par_chunks_mut(CHUNK),
-            acc[d].par_chunks_mut(CHUNK),
-            jerk[d].par_chunks_mut(CHUNK),
-            snap[d].par_chunks_mut(CHUNK),
-            force[d].par_chunks(CHUNK),
-            inv_mass.par_chunks(CHUNK),
-            material.par_chunks(CHUNK),
-        )
-            .into_par_iter()
-            .map(|(x, v, a, b, c, f, im, m)| {
-                let rows = [x, v, a, b, c];
-                let k = (&coefficients, steps);
+    let g = [0, 1, 2].map(|d| body_acceleration_column(&body, d));
+    // One work item per chunk of rows, with its rows of all three coordinates: one pass
+    // (inverse mass and material read once per row), as one part per thread.
+    let items: Vec<_> = {
+        let mut state = [position, velocity, acc, jerk, snap].map(column_chunks);
+        let [fx, fy, fz] = &*force;
+        let mut f = fx.chunks(CHUNK).zip(fy.chunks(CHUNK)).zip(fz.chunks(CHUNK));
+        inv_mass
+            .chunks(CHUNK)
+            .zip(material.chunks(CHUNK))
+            .map(|(im, m)| {
+                let ((fx, fy), fz) = f.next().expect("a force chunk per chunk");
+                let rows = state
+                    .each_mut()
+                    .map(|cols| cols.next().expect("a chunk of every column"));
+                (rows, [fx, fy, fz], im, m)
+            })
+            .collect()
+    };
+    let all = items.into_par_iter().static_map_reduce(
+        |([x, v, a, b, c], f, im, m)| {
+            let k = (&coefficients, steps);
+            let rows = x.into_iter().zip(v).zip(a).zip(b).zip(c);
+            let mut chunk = Largest::default();
+            for (d, ((((x, v), a), b), c)) in rows.enumerate() {
+                let (rows, f) = ([x, v, a, b, c], f[d]);
                 // One monomorphised loop per kind of body force and per pass, each with
                 // the rows inlined (a closure called from two loops was not, and lost
                 // the vector code).
-                let chunk = match (&g, ahead) {
+                chunk = chunk.max(match (&g[d], ahead) {
                     (BodyColumn::Uniform(g), false) => {
                         correct_chunk::<false>(rows, f, im, |_| *g, k)
                     }
@@ -140,16 +152,16 @@ pub fn gear_correct(
                     (BodyColumn::PerMaterial(g), true) => {
                         correct_chunk::<true>(rows, f, im, |i| g[m[i] as usize], k)
                     }
-                };
-                (cx * f64::from_bits(chunk.delta), chunk)
-            })
-            .reduce(
-                || (0.0, Largest::default()),
-                |p, q| (p.0.max(q.0), p.1.max(q.1)),
-            );
-        largest = largest.max(column_largest);
-        all = all.max(column);
-    }
+                });
+            }
+            chunk
+        },
+        Largest::default,
+        Largest::max,
+    );
+    // |x move| = alpha_0 dt^2/2 |Delta| (cx > 0: the largest product is that of the
+    // largest |Delta|).
+    let largest = cx * f64::from_bits(all.delta);
     // This move and the next predictor's add (triangle inequality), in the order of the
     // two passes.
     motion.add(largest * (1.0 + 1e-12));
@@ -158,6 +170,15 @@ pub fn gear_correct(
         gear.predicted_rows = particles.len();
     }
     health.state_found_finite = state_is_finite(all.position, all.velocity);
+}
+
+/// The three columns of a coordinate, chunk by chunk.
+fn column_chunks(cols: &mut [Vec<f64>; 3]) -> impl Iterator<Item = [&mut [f64]; 3]> {
+    let [x, y, z] = cols;
+    x.chunks_mut(CHUNK)
+        .zip(y.chunks_mut(CHUNK))
+        .zip(z.chunks_mut(CHUNK))
+        .map(|((x, y), z)| [x, y, z])
 }
 
 /// Bits of the largest absolute values of a corrector pass (non-negative floats order

@@ -19,6 +19,7 @@
 //! of particles, the wall contacts four wall-list entries at a time in lanes, and every
 //! particle sums its records (in item order) and its walls, in a fixed order: the result
 //! does not depend on the thread count. The model code is written once over [`Real`].
+use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, PairList, Particles, Rotation,
@@ -516,17 +517,20 @@ impl Kernel<'_> {
             )
                 .into_par_iter()
                 .enumerate()
-                .map(|(c, (records, history))| {
-                    let rows = Rows::of(p);
-                    records.fill([0.0; 6]);
-                    let mut worst = (0.0f64, u32::MAX);
-                    for (b, hist) in history.chunks_mut(LANES * width).enumerate() {
-                        let k0 = c * per_item + b * LANES;
-                        self.block::<D>(&rows, list, k0, records, hist, &mut worst);
-                    }
-                    worst
-                })
-                .reduce(|| (0.0, u32::MAX), deeper)
+                .static_map_reduce(
+                    |(c, (records, history))| {
+                        let rows = Rows::of(p);
+                        records.fill([0.0; 6]);
+                        let mut worst = (0.0f64, u32::MAX);
+                        for (b, hist) in history.chunks_mut(LANES * width).enumerate() {
+                            let k0 = c * per_item + b * LANES;
+                            self.block::<D>(&rows, list, k0, records, hist, &mut worst);
+                        }
+                        worst
+                    },
+                    || (0.0, u32::MAX),
+                    deeper,
+                )
         };
         let _span = tracing::info_span!("contact_sums_and_walls").entered();
         let wall_set = walls.as_ref().map(|(w, l, _)| (*w, *l));
@@ -553,41 +557,44 @@ impl Kernel<'_> {
         )
             .into_par_iter()
             .enumerate()
-            .map(|(c, ((fx, fy, fz, tx, ty, tz), wall_hist, wall_out))| {
-                let base = c * CHUNK;
-                let rows = base..base + fx.len();
-                let mut worst = (0.0f64, u32::MAX);
-                let walls = match (wall_set, wall_hist, wall_out) {
-                    (Some((walls, wl)), Some(hist), Some(out)) => {
-                        self.wall_contacts::<D>(p, walls, wl, rows.clone(), hist, out);
-                        Some((wl, &*out))
-                    }
-                    _ => None,
-                };
-                for (k, i) in rows.enumerate() {
-                    let mut sum = pair_sum(plan, i, sums);
-                    if let Some((wl, out)) = walls {
-                        let entries = wl.start[i] as usize..wl.start[i + 1] as usize;
-                        let local = entries.start - wl.start[base] as usize;
-                        let mut deepest = 0.0f64;
-                        for r in &out[local..local + entries.len()] {
-                            if r[7] == 0.0 {
-                                continue;
-                            }
-                            for d in 0..6 {
-                                sum[d] += r[d];
-                            }
-                            deepest = deepest.max(r[6]);
+            .static_map_reduce(
+                |(c, ((fx, fy, fz, tx, ty, tz), wall_hist, wall_out))| {
+                    let base = c * CHUNK;
+                    let rows = base..base + fx.len();
+                    let mut worst = (0.0f64, u32::MAX);
+                    let walls = match (wall_set, wall_hist, wall_out) {
+                        (Some((walls, wl)), Some(hist), Some(out)) => {
+                            self.wall_contacts::<D>(p, walls, wl, rows.clone(), hist, out);
+                            Some((wl, &*out))
                         }
-                        if deepest > 0.0 {
-                            worst = deeper(worst, (deepest / p.radius[i], p.id[i]));
+                        _ => None,
+                    };
+                    for (k, i) in rows.enumerate() {
+                        let mut sum = pair_sum(plan, i, sums);
+                        if let Some((wl, out)) = walls {
+                            let entries = wl.start[i] as usize..wl.start[i + 1] as usize;
+                            let local = entries.start - wl.start[base] as usize;
+                            let mut deepest = 0.0f64;
+                            for r in &out[local..local + entries.len()] {
+                                if r[7] == 0.0 {
+                                    continue;
+                                }
+                                for d in 0..6 {
+                                    sum[d] += r[d];
+                                }
+                                deepest = deepest.max(r[6]);
+                            }
+                            if deepest > 0.0 {
+                                worst = deeper(worst, (deepest / p.radius[i], p.id[i]));
+                            }
                         }
+                        [fx[k], fy[k], fz[k], tx[k], ty[k], tz[k]] = sum;
                     }
-                    [fx[k], fy[k], fz[k], tx[k], ty[k], tz[k]] = sum;
-                }
-                worst
-            })
-            .reduce(|| (0.0, u32::MAX), deeper);
+                    worst
+                },
+                || (0.0, u32::MAX),
+                deeper,
+            );
         deeper(pairs_worst, sums_worst)
     }
 

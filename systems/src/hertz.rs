@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use wide::{f64x4, CmpLt};
 
 use crate::real::{gather, group_masks, lane_sum, store_lanes, Real};
+use crate::team::{PartTimes, StaticSplit};
 use crate::walls::wall_contact;
 use crate::{row_chunks, Rows, CHUNK};
 
@@ -148,6 +149,14 @@ impl PairTable for Materials {
     }
 }
 
+/// What [`hertz_contact`] keeps from step to step: s_k of every pair, and the part times
+/// of its two passes ([`StaticSplit::timed_map_reduce`]).
+#[derive(Default)]
+pub struct KeptFromStep {
+    pair_scale: Vec<f64>,
+    times: [PartTimes; 2],
+}
+
 /// Contact forces of this step, in two passes over the half Verlet list:
 /// 1. every particle i, for the pairs of its own row (partners j > i), four at a time in
 ///    `f64x4` lanes with no branch on contact: the Hertz force magnitude over the
@@ -163,7 +172,7 @@ impl PairTable for Materials {
 /// partner pairs in list order, then walls), so the result does not depend on the thread
 /// count. Also finds the largest overlap ratio for the monitor.
 pub fn hertz_contact(
-    mut pair_scale: Local<Vec<f64>>,
+    mut kept: Local<KeptFromStep>,
     mut particles: ResMut<Particles>,
     list: Res<VerletList>,
     materials: Res<Materials>,
@@ -174,14 +183,15 @@ pub fn hertz_contact(
     let _span = tracing::info_span!("hertz_contact").entered();
     let walls = walls.as_deref().zip(wall_list.as_deref());
     let restitution = materials.pairs.iter().any(|p| p.restitution_factor > 0.0);
+    let KeptFromStep { pair_scale, times } = &mut *kept;
     pair_scale.resize(list.pairs(), 0.0);
     let one = OneMaterial(materials.pairs[0]);
-    let (p, s) = (&mut *particles, &mut pair_scale[..]);
+    let (p, s, t) = (&mut *particles, &mut pair_scale[..], times);
     let worst = match (materials.list.len() == 1, restitution) {
-        (true, false) => both_passes::<_, ConstantDamping>(p, &list, &one, s, walls),
-        (true, true) => both_passes::<_, RestitutionDamping>(p, &list, &one, s, walls),
-        (false, false) => both_passes::<_, ConstantDamping>(p, &list, &*materials, s, walls),
-        (false, true) => both_passes::<_, RestitutionDamping>(p, &list, &*materials, s, walls),
+        (true, false) => both_passes::<_, ConstantDamping>(p, &list, &one, s, walls, t),
+        (true, true) => both_passes::<_, RestitutionDamping>(p, &list, &one, s, walls, t),
+        (false, false) => both_passes::<_, ConstantDamping>(p, &list, &*materials, s, walls, t),
+        (false, true) => both_passes::<_, RestitutionDamping>(p, &list, &*materials, s, walls, t),
     };
     health.max_overlap_ratio = worst.0;
     health.max_overlap_particle = worst.1;
@@ -195,15 +205,16 @@ fn both_passes<T: PairTable, D: NormalDamping>(
     table: &T,
     scale: &mut [f64],
     walls: Option<(&Walls, &WallList)>,
+    [row_times, partner_times]: &mut [PartTimes; 2],
 ) -> (f64, u32) {
     let rows = {
         let _span = tracing::info_span!("row_forces").entered();
-        row_forces::<T, D>(particles, list, table, scale)
+        row_forces::<T, D>(particles, list, table, scale, row_times)
     };
     let _span = tracing::info_span!("partner_forces").entered();
     deeper(
         rows,
-        partner_and_wall_forces::<T, D>(particles, list, scale, table, walls),
+        partner_and_wall_forces::<T, D>(particles, list, scale, table, walls, partner_times),
     )
 }
 
@@ -274,6 +285,7 @@ fn row_forces<T: PairTable, D: NormalDamping>(
     list: &VerletList,
     table: &T,
     scale: &mut [f64],
+    times: &mut PartTimes,
 ) -> (f64, u32) {
     let n = particles.len();
     let mut force = std::mem::take(&mut particles.force);
@@ -287,14 +299,18 @@ fn row_forces<T: PairTable, D: NormalDamping>(
     )
         .into_par_iter()
         .enumerate()
-        .map(|(c, (fx, fy, fz, scale))| {
-            if sparse(scale.len(), fx.len()) {
-                flat_rows::<T, D>(&cols, list, table, c * CHUNK, [fx, fy, fz], scale)
-            } else {
-                owner_rows::<T, D>(&cols, list, table, c * CHUNK, [fx, fy, fz], scale)
-            }
-        })
-        .reduce(|| (0.0, u32::MAX), deeper);
+        .timed_map_reduce(
+            times,
+            |(c, (fx, fy, fz, scale))| {
+                if sparse(scale.len(), fx.len()) {
+                    flat_rows::<T, D>(&cols, list, table, c * CHUNK, [fx, fy, fz], scale)
+                } else {
+                    owner_rows::<T, D>(&cols, list, table, c * CHUNK, [fx, fy, fz], scale)
+                }
+            },
+            || (0.0, u32::MAX),
+            deeper,
+        );
     particles.force = force;
     worst
 }
@@ -463,6 +479,7 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
     scale: &[f64],
     table: &T,
     walls: Option<(&Walls, &WallList)>,
+    times: &mut PartTimes,
 ) -> (f64, u32) {
     let mut force = std::mem::take(&mut particles.force);
     let cols = Rows::of(particles);
@@ -475,56 +492,60 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
         .into_par_iter()
         .enumerate()
         // `move`: the closure holds its own copy of the column slices, kept in registers.
-        .map(move |(c, (fx, fy, fz))| {
-            let base = c * CHUNK;
-            let end = base + fx.len();
-            let rows = base..end;
-            let partnered = (list.rev_start[end] - list.rev_start[base]) as usize;
-            let wall_rows = walls.filter(|(_, wl)| wl.start[base] != wl.start[end]);
-            if sparse(partnered, fx.len()) {
-                flat_partners(&cols, list, scale, base, [&mut *fx, &mut *fy, &mut *fz]);
-                let Some((walls, wl)) = wall_rows else {
-                    return (0.0, u32::MAX);
-                };
+        .timed_map_reduce(
+            times,
+            move |(c, (fx, fy, fz))| {
+                let base = c * CHUNK;
+                let end = base + fx.len();
+                let rows = base..end;
+                let partnered = (list.rev_start[end] - list.rev_start[base]) as usize;
+                let wall_rows = walls.filter(|(_, wl)| wl.start[base] != wl.start[end]);
+                if sparse(partnered, fx.len()) {
+                    flat_partners(&cols, list, scale, base, [&mut *fx, &mut *fy, &mut *fz]);
+                    let Some((walls, wl)) = wall_rows else {
+                        return (0.0, u32::MAX);
+                    };
+                    let mut worst = (0.0f64, u32::MAX);
+                    for i in rows.filter(|&i| wl.start[i] != wl.start[i + 1]) {
+                        let k = i - base;
+                        let mut f = [fx[k], fy[k], fz[k]];
+                        let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
+                        if deepest > 0.0 {
+                            worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
+                        }
+                        [fx[k], fy[k], fz[k]] = f;
+                    }
+                    return worst;
+                }
                 let mut worst = (0.0f64, u32::MAX);
-                for i in rows.filter(|&i| wl.start[i] != wl.start[i + 1]) {
+                for i in rows {
                     let k = i - base;
+                    let (xi, yi, zi) = (
+                        cols.position[0][i],
+                        cols.position[1][i],
+                        cols.position[2][i],
+                    );
                     let mut f = [fx[k], fy[k], fz[k]];
-                    let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
-                    if deepest > 0.0 {
-                        worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
+                    let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
+                    for (&p, &j) in list.rev_pairs[rev.clone()].iter().zip(&list.rev_owner[rev]) {
+                        let (j, s) = (j as usize, scale[p as usize]);
+                        f[0] += s * (xi - cols.position[0][j]);
+                        f[1] += s * (yi - cols.position[1][j]);
+                        f[2] += s * (zi - cols.position[2][j]);
+                    }
+                    if let Some((walls, wl)) = wall_rows {
+                        let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
+                        if deepest > 0.0 {
+                            worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
+                        }
                     }
                     [fx[k], fy[k], fz[k]] = f;
                 }
-                return worst;
-            }
-            let mut worst = (0.0f64, u32::MAX);
-            for i in rows {
-                let k = i - base;
-                let (xi, yi, zi) = (
-                    cols.position[0][i],
-                    cols.position[1][i],
-                    cols.position[2][i],
-                );
-                let mut f = [fx[k], fy[k], fz[k]];
-                let rev = list.rev_start[i] as usize..list.rev_start[i + 1] as usize;
-                for (&p, &j) in list.rev_pairs[rev.clone()].iter().zip(&list.rev_owner[rev]) {
-                    let (j, s) = (j as usize, scale[p as usize]);
-                    f[0] += s * (xi - cols.position[0][j]);
-                    f[1] += s * (yi - cols.position[1][j]);
-                    f[2] += s * (zi - cols.position[2][j]);
-                }
-                if let Some((walls, wl)) = wall_rows {
-                    let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
-                    if deepest > 0.0 {
-                        worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
-                    }
-                }
-                [fx[k], fy[k], fz[k]] = f;
-            }
-            worst
-        })
-        .reduce(|| (0.0, u32::MAX), deeper);
+                worst
+            },
+            || (0.0, u32::MAX),
+            deeper,
+        );
     particles.force = force;
     worst
 }

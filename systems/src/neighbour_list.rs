@@ -5,6 +5,7 @@
 //! the skin: then no pair can have closed the gap `r_i + r_j + skin` unseen. At rebuilds
 //! the particles are re-sorted in cell order (counting sort on the cell index), so that
 //! neighbours are close in memory.
+use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder, ScatterPlan,
@@ -107,7 +108,7 @@ fn narrow_rows(particles: &Particles, list: &mut VerletList, inner_skin: f64) {
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(c, (nbrs, ends))| {
+        .static_for_each(|(c, (nbrs, ends))| {
             let base = c * CHUNK;
             let pair_base = start[base] as usize;
             let mut far = Vec::new();
@@ -202,7 +203,7 @@ fn rebuild(
         reference.resize(n, 0.0);
         (reference.par_chunks_mut(CHUNK), position.par_chunks(CHUNK))
             .into_par_iter()
-            .for_each(|(to, from)| to.copy_from_slice(from));
+            .static_for_each(|(to, from)| to.copy_from_slice(from));
     }
     list.stale = false;
     list.builds += 1;
@@ -222,15 +223,18 @@ pub fn max_displacement_squared(particles: &Particles, list: &VerletList) -> f64
         rz.par_chunks(CHUNK),
     )
         .into_par_iter()
-        .map(|(x, y, z, rx, ry, rz)| {
-            let mut m = 0.0f64;
-            for k in 0..x.len() {
-                let (dx, dy, dz) = (x[k] - rx[k], y[k] - ry[k], z[k] - rz[k]);
-                m = m.max(dx * dx + dy * dy + dz * dz);
-            }
-            m
-        })
-        .reduce(|| 0.0, f64::max)
+        .static_map_reduce(
+            |(x, y, z, rx, ry, rz)| {
+                let mut m = 0.0f64;
+                for k in 0..x.len() {
+                    let (dx, dy, dz) = (x[k] - rx[k], y[k] - ry[k], z[k] - rz[k]);
+                    m = m.max(dx * dx + dy * dy + dz * dz);
+                }
+                m
+            },
+            || 0.0,
+            f64::max,
+        )
 }
 
 /// Uniform cell grid over the particles' bounding box, cell edge >= 2 r_max + skin, so

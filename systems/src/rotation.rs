@@ -7,6 +7,7 @@
 //! coefficients 1, 3/4, 1/2, 1/12 on w, dw/dt, d2w/dt2, d3w/dt3; see `gear.rs`), or
 //! velocity Verlet with w(t + dt/2) (see `verlet.rs`). The orientation turns by w dt
 //! after each corrector (second order, see `turn_orientations`).
+use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{IntegratorKind, Particles, Rotation, SimClock};
 use rayon::prelude::*;
@@ -48,7 +49,7 @@ pub fn gear_rotation_predict(
             snap[d].par_chunks(CHUNK),
         )
             .into_par_iter()
-            .for_each(|(w, a, b, c)| {
+            .static_for_each(|(w, a, b, c)| {
                 for k in 0..w.len() {
                     w[k] += a[k] * dt + b[k] * h2 + c[k] * h3;
                 }
@@ -91,7 +92,7 @@ pub fn gear_rotation_correct(
             radius.par_chunks(CHUNK),
         )
             .into_par_iter()
-            .for_each(|(w, a, b, c, t, im, r)| {
+            .static_for_each(|(w, a, b, c, t, im, r)| {
                 for k in 0..w.len() {
                     let (a_p, b_p) = predicted_derivatives(a[k], b[k], c[k], dt, h2);
                     let delta = t[k] * inverse_inertia(im[k], r[k]) - a_p;
@@ -165,7 +166,7 @@ fn verlet_rotation_half_step(
             radius.par_chunks(CHUNK),
         )
             .into_par_iter()
-            .for_each(|(w, wh, t, im, r)| {
+            .static_for_each(|(w, wh, t, im, r)| {
                 for k in 0..w.len() {
                     let kick = h * t[k] * inverse_inertia(im[k], r[k]);
                     if predict {
@@ -204,7 +205,7 @@ fn turn_orientations(particles: &Particles, rotation: &mut Rotation, dt: f64) {
         ),
     )
         .into_par_iter()
-        .for_each(|((q0, q1, q2, q3), (wx, wy, wz))| {
+        .static_for_each(|((q0, q1, q2, q3), (wx, wy, wz))| {
             for k in 0..q0.len().min(wx.len()) {
                 let w = glam::DQuat::from_xyzw(h * wx[k], h * wy[k], h * wz[k], 0.0);
                 let q = glam::DQuat::from_xyzw(q1[k], q2[k], q3[k], q0[k]);

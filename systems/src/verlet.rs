@@ -11,6 +11,7 @@
 //! With [`PredictAhead`] granted, the corrector also runs the next step's predictor on
 //! each row in the same pass: both kick with the same forces a(t + dt), so the pass reads
 //! the state once per step instead of twice, with the same arithmetic in the same order.
+use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     BodyAcceleration, Particles, PredictAhead, RunHealth, SimClock, StepMotion, VerletState,
@@ -55,22 +56,27 @@ pub fn verlet_predict(
             material[start..].par_chunks(CHUNK),
         )
             .into_par_iter()
-            .map(|(x, v, vh, f, im, m)| {
-                let n = x.len();
-                let (v, vh, f, im, m) = (&mut v[..n], &mut vh[..n], &f[..n], &im[..n], &m[..n]);
-                let mut fastest = 0u64;
-                let mut predict = |k: usize, g: f64| {
-                    let kick = h * (f[k] * im[k] + g);
-                    predict_row([&mut x[k], &mut v[k], &mut vh[k]], kick, dt);
-                    fastest = fastest.max(vh[k].abs().to_bits());
-                };
-                match &g {
-                    BodyColumn::Uniform(g) => (0..n).for_each(|k| predict(k, *g)),
-                    BodyColumn::PerMaterial(g) => (0..n).for_each(|k| predict(k, g[m[k] as usize])),
-                }
-                f64::from_bits(fastest)
-            })
-            .reduce(|| 0.0, f64::max);
+            .static_map_reduce(
+                |(x, v, vh, f, im, m)| {
+                    let n = x.len();
+                    let (v, vh, f, im, m) = (&mut v[..n], &mut vh[..n], &f[..n], &im[..n], &m[..n]);
+                    let mut fastest = 0u64;
+                    let mut predict = |k: usize, g: f64| {
+                        let kick = h * (f[k] * im[k] + g);
+                        predict_row([&mut x[k], &mut v[k], &mut vh[k]], kick, dt);
+                        fastest = fastest.max(vh[k].abs().to_bits());
+                    };
+                    match &g {
+                        BodyColumn::Uniform(g) => (0..n).for_each(|k| predict(k, *g)),
+                        BodyColumn::PerMaterial(g) => {
+                            (0..n).for_each(|k| predict(k, g[m[k] as usize]))
+                        }
+                    }
+                    f64::from_bits(fastest)
+                },
+                || 0.0,
+                f64::max,
+            );
         fastest = fastest.max(column_fastest);
     }
     // |dx_d| = dt |v_d(t + dt/2)|, rounded up by a relative 1e-12 for the products.
@@ -112,25 +118,28 @@ pub fn verlet_correct(
             material.par_chunks(CHUNK),
         )
             .into_par_iter()
-            .map(|(x, v, vh, f, im, m)| {
-                let rows = [x, v, vh];
-                // One monomorphised loop per kind of body force and per pass.
-                match (&g, ahead) {
-                    (BodyColumn::Uniform(g), false) => {
-                        correct_chunk::<false>(rows, f, im, |_| *g, dt)
+            .static_map_reduce(
+                |(x, v, vh, f, im, m)| {
+                    let rows = [x, v, vh];
+                    // One monomorphised loop per kind of body force and per pass.
+                    match (&g, ahead) {
+                        (BodyColumn::Uniform(g), false) => {
+                            correct_chunk::<false>(rows, f, im, |_| *g, dt)
+                        }
+                        (BodyColumn::Uniform(g), true) => {
+                            correct_chunk::<true>(rows, f, im, |_| *g, dt)
+                        }
+                        (BodyColumn::PerMaterial(g), false) => {
+                            correct_chunk::<false>(rows, f, im, |i| g[m[i] as usize], dt)
+                        }
+                        (BodyColumn::PerMaterial(g), true) => {
+                            correct_chunk::<true>(rows, f, im, |i| g[m[i] as usize], dt)
+                        }
                     }
-                    (BodyColumn::Uniform(g), true) => {
-                        correct_chunk::<true>(rows, f, im, |_| *g, dt)
-                    }
-                    (BodyColumn::PerMaterial(g), false) => {
-                        correct_chunk::<false>(rows, f, im, |i| g[m[i] as usize], dt)
-                    }
-                    (BodyColumn::PerMaterial(g), true) => {
-                        correct_chunk::<true>(rows, f, im, |i| g[m[i] as usize], dt)
-                    }
-                }
-            })
-            .reduce(Largest::default, Largest::max);
+                },
+                Largest::default,
+                Largest::max,
+            );
         all = all.max(column);
     }
     if ahead {
