@@ -36,16 +36,8 @@ pub trait StaticSplit: IndexedParallelIterator {
         Id: Fn() -> R + Sync,
         Op: Fn(R, R) -> R + Sync,
     {
-        let len = self.len();
-        let threads = rayon::current_num_threads().clamp(1, len.max(1));
-        let ends = (1..threads).map(|t| len * t / threads).collect();
-        self.with_producer(Parts {
-            ends,
-            map,
-            identity,
-            op,
-        })
-        .0
+        // With no times of a last run, the parts are equal.
+        self.timed_map_reduce(&mut PartTimes::default(), map, identity, op)
     }
 
     /// As [`static_map_reduce`](Self::static_map_reduce), the parts cut where the times
