@@ -29,7 +29,7 @@ use rayon::prelude::*;
 
 use crate::monitor::state_is_finite;
 use crate::team::StaticSplit;
-use crate::{body_acceleration_column, BodyColumn, CHUNK};
+use crate::{body_acceleration_column, chunks_of_three_coordinates, BodyColumn, CHUNK};
 
 pub fn gear_predict(
     mut particles: ResMut<Particles>,
@@ -115,22 +115,12 @@ pub fn gear_correct(
     let g = [0, 1, 2].map(|d| body_acceleration_column(&body, d));
     // One work item per chunk of rows, with its rows of all three coordinates: one pass
     // (inverse mass and material read once per row), as one part per thread.
-    let items: Vec<_> = {
-        let mut state = [position, velocity, acc, jerk, snap].map(column_chunks);
-        let [fx, fy, fz] = &*force;
-        let mut f = fx.chunks(CHUNK).zip(fy.chunks(CHUNK)).zip(fz.chunks(CHUNK));
-        inv_mass
-            .chunks(CHUNK)
-            .zip(material.chunks(CHUNK))
-            .map(|(im, m)| {
-                let ((fx, fy), fz) = f.next().expect("a force chunk per chunk");
-                let rows = state
-                    .each_mut()
-                    .map(|cols| cols.next().expect("a chunk of every column"));
-                (rows, [fx, fy, fz], im, m)
-            })
-            .collect()
-    };
+    let items = chunks_of_three_coordinates(
+        [position, velocity, acc, jerk, snap],
+        force,
+        inv_mass,
+        material,
+    );
     let all = items.into_par_iter().static_map_reduce(
         |([x, v, a, b, c], f, im, m)| {
             let k = (&coefficients, steps);
@@ -170,15 +160,6 @@ pub fn gear_correct(
         gear.predicted_rows = particles.len();
     }
     health.state_found_finite = state_is_finite(all.position, all.velocity);
-}
-
-/// The three columns of a coordinate, chunk by chunk.
-fn column_chunks(cols: &mut [Vec<f64>; 3]) -> impl Iterator<Item = [&mut [f64]; 3]> {
-    let [x, y, z] = cols;
-    x.chunks_mut(CHUNK)
-        .zip(y.chunks_mut(CHUNK))
-        .zip(z.chunks_mut(CHUNK))
-        .map(|((x, y), z)| [x, y, z])
 }
 
 /// Bits of the largest absolute values of a corrector pass (non-negative floats order

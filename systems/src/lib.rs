@@ -55,6 +55,42 @@ pub fn body_acceleration_column(
     }
 }
 
+/// The work items of an integrator pass that does all three coordinates at once: per chunk
+/// of [`CHUNK`] rows, that chunk of each of the `K` state columns (x, y and z), of the
+/// forces, of the inverse masses and of the materials.
+#[allow(clippy::type_complexity)]
+pub(crate) fn chunks_of_three_coordinates<'a, const K: usize>(
+    state: [&'a mut [Vec<f64>; 3]; K],
+    force: &'a [Vec<f64>; 3],
+    inv_mass: &'a [f64],
+    material: &'a [u16],
+) -> Vec<(
+    [[&'a mut [f64]; 3]; K],
+    [&'a [f64]; 3],
+    &'a [f64],
+    &'a [u16],
+)> {
+    let mut state = state.map(|[x, y, z]| {
+        x.chunks_mut(CHUNK)
+            .zip(y.chunks_mut(CHUNK))
+            .zip(z.chunks_mut(CHUNK))
+            .map(|((x, y), z)| [x, y, z])
+    });
+    let [fx, fy, fz] = force;
+    let mut f = fx.chunks(CHUNK).zip(fy.chunks(CHUNK)).zip(fz.chunks(CHUNK));
+    inv_mass
+        .chunks(CHUNK)
+        .zip(material.chunks(CHUNK))
+        .map(|(im, m)| {
+            let ((fx, fy), fz) = f.next().expect("a force chunk per chunk");
+            let rows = state
+                .each_mut()
+                .map(|cols| cols.next().expect("a chunk of every column"));
+            (rows, [fx, fy, fz], im, m)
+        })
+        .collect()
+}
+
 /// The particle columns of a contact pass, each cut to the particle count `n`: a lane's
 /// index checked once against `n` needs no bounds check in the gathers that follow.
 #[derive(Clone, Copy)]

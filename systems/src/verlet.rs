@@ -19,7 +19,7 @@ use grainflow_components::{
 use rayon::prelude::*;
 
 use crate::monitor::state_is_finite;
-use crate::{body_acceleration_column, BodyColumn, CHUNK};
+use crate::{body_acceleration_column, chunks_of_three_coordinates, BodyColumn, CHUNK};
 
 pub fn verlet_predict(
     mut particles: ResMut<Particles>,
@@ -106,42 +106,41 @@ pub fn verlet_correct(
         material,
         ..
     } = &mut *particles;
-    let mut all = Largest::default();
-    for d in 0..3 {
-        let g = body_acceleration_column(&body, d);
-        let column = (
-            position[d].par_chunks_mut(CHUNK),
-            velocity[d].par_chunks_mut(CHUNK),
-            state.half_velocity[d].par_chunks_mut(CHUNK),
-            force[d].par_chunks(CHUNK),
-            inv_mass.par_chunks(CHUNK),
-            material.par_chunks(CHUNK),
-        )
-            .into_par_iter()
-            .static_map_reduce(
-                |(x, v, vh, f, im, m)| {
-                    let rows = [x, v, vh];
-                    // One monomorphised loop per kind of body force and per pass.
-                    match (&g, ahead) {
-                        (BodyColumn::Uniform(g), false) => {
-                            correct_chunk::<false>(rows, f, im, |_| *g, dt)
-                        }
-                        (BodyColumn::Uniform(g), true) => {
-                            correct_chunk::<true>(rows, f, im, |_| *g, dt)
-                        }
-                        (BodyColumn::PerMaterial(g), false) => {
-                            correct_chunk::<false>(rows, f, im, |i| g[m[i] as usize], dt)
-                        }
-                        (BodyColumn::PerMaterial(g), true) => {
-                            correct_chunk::<true>(rows, f, im, |i| g[m[i] as usize], dt)
-                        }
+    let g = [0, 1, 2].map(|d| body_acceleration_column(&body, d));
+    // One work item per chunk of rows, with its rows of all three coordinates (as the
+    // Gear corrector).
+    let items = chunks_of_three_coordinates(
+        [position, velocity, &mut state.half_velocity],
+        force,
+        inv_mass,
+        material,
+    );
+    let all = items.into_par_iter().static_map_reduce(
+        |([x, v, vh], f, im, m)| {
+            let mut chunk = Largest::default();
+            for (d, ((x, v), vh)) in x.into_iter().zip(v).zip(vh).enumerate() {
+                let (rows, f) = ([x, v, vh], f[d]);
+                // One monomorphised loop per kind of body force and per pass.
+                chunk = chunk.max(match (&g[d], ahead) {
+                    (BodyColumn::Uniform(g), false) => {
+                        correct_chunk::<false>(rows, f, im, |_| *g, dt)
                     }
-                },
-                Largest::default,
-                Largest::max,
-            );
-        all = all.max(column);
-    }
+                    (BodyColumn::Uniform(g), true) => {
+                        correct_chunk::<true>(rows, f, im, |_| *g, dt)
+                    }
+                    (BodyColumn::PerMaterial(g), false) => {
+                        correct_chunk::<false>(rows, f, im, |i| g[m[i] as usize], dt)
+                    }
+                    (BodyColumn::PerMaterial(g), true) => {
+                        correct_chunk::<true>(rows, f, im, |i| g[m[i] as usize], dt)
+                    }
+                });
+            }
+            chunk
+        },
+        Largest::default,
+        Largest::max,
+    );
     if ahead {
         // As the predictor reports it.
         motion.add(dt * f64::from_bits(all.half_velocity) * (1.0 + 1e-12));
