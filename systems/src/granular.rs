@@ -19,7 +19,6 @@
 //! of particles, the wall contacts four wall-list entries at a time in lanes, and every
 //! particle sums its records (in item order) and its walls, in a fixed order: the result
 //! does not depend on the thread count. The model code is written once over [`Real`].
-use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     Columns, ContactHistory, ContactLaws, HistoryLayout, Materials, PairList, Particles, Rotation,
@@ -37,6 +36,7 @@ use crate::jkr::{
 };
 use crate::real::{gather, group_masks, transpose4, Real, V3};
 use crate::rolling::{rolling_resistance_force, rolling_velocity};
+use crate::team::StaticSplit;
 use crate::walls::WallLanes;
 use crate::{row_chunks, Rows, CHUNK};
 

@@ -5,7 +5,6 @@
 //! the skin: then no pair can have closed the gap `r_i + r_j + skin` unseen. At rebuilds
 //! the particles are re-sorted in cell order (counting sort on the cell index), so that
 //! neighbours are close in memory.
-use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder, ScatterPlan,
@@ -14,6 +13,7 @@ use grainflow_components::{
 use rayon::prelude::*;
 
 use crate::compressed_rows::{join_rows, reverse_index};
+use crate::team::StaticSplit;
 use crate::{row_chunks, CHUNK};
 
 /// Rebuild the Verlet list when needed, re-sorting particles in cell order.

@@ -7,12 +7,12 @@
 //! coefficients 1, 3/4, 1/2, 1/12 on w, dw/dt, d2w/dt2, d3w/dt3; see `gear.rs`), or
 //! velocity Verlet with w(t + dt/2) (see `verlet.rs`). The orientation turns by w dt
 //! after each corrector (second order, see `turn_orientations`).
-use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{IntegratorKind, Particles, Rotation, SimClock};
 use rayon::prelude::*;
 
 use crate::gear::{flush_tiny, predicted_derivatives};
+use crate::team::StaticSplit;
 use crate::CHUNK;
 
 /// Whether the world integrates rotation (some contact law produces torques).

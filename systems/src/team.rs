@@ -60,7 +60,7 @@ pub trait StaticSplit: IndexedParallelIterator {
         let len = self.len();
         let ends = times.next_ends(len, rayon::current_num_threads().clamp(1, len.max(1)));
         let (result, seconds) = self.with_producer(Parts {
-            ends: ends.clone(),
+            ends: &ends,
             map,
             identity,
             op,
@@ -133,15 +133,15 @@ impl PartTimes {
     }
 }
 
-struct Parts<M, Id, Op> {
+struct Parts<'e, M, Id, Op> {
     /// The end of every part but the last, which ends at the length.
-    ends: Vec<usize>,
+    ends: &'e [usize],
     map: M,
     identity: Id,
     op: Op,
 }
 
-impl<M, Id, Op> Parts<M, Id, Op> {
+impl<M, Id, Op> Parts<'_, M, Id, Op> {
     /// The part folded in order, and the seconds it took.
     fn fold<P, R>(&self, part: P) -> (R, f64)
     where
@@ -159,7 +159,7 @@ impl<M, Id, Op> Parts<M, Id, Op> {
     }
 }
 
-impl<T, R, M, Id, Op> ProducerCallback<T> for Parts<M, Id, Op>
+impl<T, R, M, Id, Op> ProducerCallback<T> for Parts<'_, M, Id, Op>
 where
     R: Send,
     M: Fn(T) -> R + Sync,
@@ -176,7 +176,7 @@ where
         }
         let mut slots = Vec::with_capacity(self.ends.len() + 1);
         let (mut rest, mut at) = (producer, 0);
-        for &end in &self.ends {
+        for &end in self.ends {
             let (part, tail) = rest.split_at(end - at);
             slots.push(Mutex::new(Some(part)));
             (rest, at) = (tail, end);

@@ -11,7 +11,6 @@
 //! With [`PredictAhead`] granted, the corrector also runs the next step's predictor on
 //! each row in the same pass: both kick with the same forces a(t + dt), so the pass reads
 //! the state once per step instead of twice, with the same arithmetic in the same order.
-use crate::team::StaticSplit;
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     BodyAcceleration, Particles, PredictAhead, RunHealth, SimClock, StepMotion, VerletState,
@@ -19,6 +18,7 @@ use grainflow_components::{
 use rayon::prelude::*;
 
 use crate::monitor::state_is_finite;
+use crate::team::StaticSplit;
 use crate::{body_acceleration_column, chunks_of_three_coordinates, BodyColumn, CHUNK};
 
 pub fn verlet_predict(
