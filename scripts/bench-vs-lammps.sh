@@ -37,8 +37,10 @@ results="$WORK/logs/grainflow_$(date +%Y%m%d_%H%M%S).tsv"
 printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\n" > "$results"
 for st in $STATES; do
   for integ in $INTEGRATORS; do
-    for t in $THREADS; do
-      for rep in $(seq 1 "$REPS"); do
+    # The thread counts alternate within each repetition, so that a machine whose speed
+    # drifts over the minutes (a shared virtual machine) hits them alike.
+    for rep in $(seq 1 "$REPS"); do
+      for t in $THREADS; do
         wait_idle
         out="$WORK/grainflow_${st}_${integ}_t${t}"
         "$BIN" run "$ROOT/cases/bench-hopper-$st.toml" --threads "$t" --out "$out" \
@@ -72,5 +74,17 @@ for st in sorted({k[0] for k in g} | {k[0] for k in lam}):
         if s == st:
             m = statistics.median(v)
             print(f"{st:<7}{'grainflow ' + integ:<26}{t:>8}{m/1e6:>10.3f}{m/t/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}")
+# Per repetition, each thread count's rate over the first's (same minute); their median.
+print(f"\n{'state':<7}{'integrator':<18}{'threads':>8}{'ratio per repetition':>32}{'median':>8}")
+reps = defaultdict(dict)
+for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
+    reps[(r["state"], r["integrator"])].setdefault(r["rep"], {})[int(r["threads"])] = float(r["particle_steps_per_s"])
+for (st, integ), by_rep in sorted(reps.items()):
+    counts = sorted({t for v in by_rep.values() for t in v})
+    for t in counts[1:]:
+        ratios = [v[t] / v[counts[0]] for v in by_rep.values() if t in v and counts[0] in v]
+        if ratios:
+            cells = " ".join(f"{x:.2f}" for x in ratios)
+            print(f"{st:<7}{integ:<18}{f'{t}/{counts[0]}':>8}{cells:>32}{statistics.median(ratios):>8.2f}")
 print("\nMpstep/s: million particle-steps per second, median over the repetitions.")
 PY

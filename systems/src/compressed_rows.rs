@@ -59,25 +59,34 @@ pub fn join_rows<T: Copy + Default + Send + Sync>(
     (start, owner, joined)
 }
 
-/// A reverse index by partner (a counting sort): for entries `(k, j)`, entry `k` with
-/// partner `j < n`, given in ascending `k`, `rev[rev_start[j]..rev_start[j + 1]]` are the
-/// entries of partner `j`, ascending.
+/// A reverse index by partner (a counting sort): the entries `k` of the ascending,
+/// disjoint `ranges`, entry `k` with partner `partner[k] < n`;
+/// `rev[rev_start[j]..rev_start[j + 1]]` are the entries of partner `j`, ascending. The
+/// ranges are walked as plain loops over `partner`: an iterator of `(k, partner)` made
+/// with `flat_map` over mostly empty rows took 0.44 ms per index against 0.18 ms, for the
+/// 36,500 pairs of the loose benchmark state (one thread, 2026-12-02).
 pub fn reverse_index(
     n: usize,
-    entries: impl Iterator<Item = (u32, u32)> + Clone,
+    partner: &[u32],
+    ranges: impl Iterator<Item = std::ops::Range<usize>> + Clone,
 ) -> (Vec<u32>, Vec<u32>) {
     let mut rev_start = vec![0u32; n + 1];
-    for (_, j) in entries.clone() {
-        rev_start[j as usize + 1] += 1;
+    for range in ranges.clone() {
+        for &j in &partner[range] {
+            rev_start[j as usize + 1] += 1;
+        }
     }
     for p in 0..n {
         rev_start[p + 1] += rev_start[p];
     }
     let mut fill = rev_start.clone();
     let mut rev = vec![0; rev_start[n] as usize];
-    for (k, j) in entries {
-        rev[fill[j as usize] as usize] = k;
-        fill[j as usize] += 1;
+    for range in ranges {
+        let first = range.start;
+        for (k, &j) in (first..).zip(&partner[range]) {
+            rev[fill[j as usize] as usize] = k as u32;
+            fill[j as usize] += 1;
+        }
     }
     (rev_start, rev)
 }
@@ -98,5 +107,14 @@ mod tests {
         assert_eq!(start, [0, 2, 2, 3, 3, 3, 4]);
         assert_eq!(owner, [0, 0, 2, 5]);
         assert_eq!(joined, [7, 8, 9, 4]);
+    }
+
+    #[test]
+    fn reverse_index_lists_entries_by_partner_ascending() {
+        // Entries 0..2 and 4..6 (entry 2 and 3 skipped) with their partners.
+        let partner = [2, 0, 2, 1, 0, 2];
+        let (start, rev) = reverse_index(3, &partner, [0..2, 4..6].into_iter());
+        assert_eq!(start, [0, 2, 2, 4]);
+        assert_eq!(rev, [1, 4, 0, 5]);
     }
 }

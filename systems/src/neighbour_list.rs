@@ -158,8 +158,13 @@ fn index_near_pairs(list: &mut VerletList) {
         owner,
         ..
     } = &*list;
-    let near = (0..n).flat_map(|i| start[i]..near_end[i]);
-    let (rev_start, rev_pairs) = reverse_index(n, near.map(|k| (k, neighbours[k as usize])));
+    let (rev_start, rev_pairs) = if near_end[..] == start[1..] {
+        // Whole rows: all pairs, one range.
+        reverse_index(n, neighbours, std::iter::once(0..neighbours.len()))
+    } else {
+        let near = (0..n).map(|i| start[i] as usize..near_end[i] as usize);
+        reverse_index(n, neighbours, near)
+    };
     list.rev_owner = rev_pairs.par_iter().map(|&k| owner[k as usize]).collect();
     list.rev_start = rev_start;
     list.rev_pairs = rev_pairs;
@@ -621,7 +626,7 @@ pub fn scatter_plan(
         particle.extend_from_slice(touched);
         pair_slot.extend_from_slice(slots);
     }
-    let (gather_start, gather) = reverse_index(n, (0..).zip(particle.iter().copied()));
+    let (gather_start, gather) = reverse_index(n, &particle, std::iter::once(0..particle.len()));
     ScatterPlan {
         pairs_per_item,
         item_start,
