@@ -262,6 +262,40 @@ pub struct CellGrid {
 /// Cells per tile edge.
 const TILE: usize = 4;
 
+/// The particles' bounding box (lowest and highest coordinate per axis) and largest
+/// radius, in one pass over the rows (minima and maxima: the same for any thread count).
+fn bounds(particles: &Particles) -> ([f64; 3], [f64; 3], f64) {
+    type Bounds = ([f64; 3], [f64; 3], f64);
+    let none: Bounds = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0.0);
+    let [x, y, z] = &particles.position;
+    (
+        x.par_chunks(CHUNK),
+        y.par_chunks(CHUNK),
+        z.par_chunks(CHUNK),
+        particles.radius.par_chunks(CHUNK),
+    )
+        .into_par_iter()
+        .static_map_reduce(
+            |(x, y, z, r)| {
+                // Plain folds: LLVM vectorises a min or max reduction over a slice.
+                let cols = [x, y, z];
+                (
+                    cols.map(|c| c.iter().copied().fold(f64::INFINITY, f64::min)),
+                    cols.map(|c| c.iter().copied().fold(f64::NEG_INFINITY, f64::max)),
+                    r.iter().copied().fold(0.0, f64::max),
+                )
+            },
+            || none,
+            |(lo_a, hi_a, r_a), (lo_b, hi_b, r_b)| {
+                (
+                    [0, 1, 2].map(|d| lo_a[d].min(lo_b[d])),
+                    [0, 1, 2].map(|d| hi_a[d].max(hi_b[d])),
+                    r_a.max(r_b),
+                )
+            },
+        )
+}
+
 /// Particles ordered by cell: those of cell `c` are `members[cell_start[c]..cell_start[c+1]]`.
 pub struct CellOrder {
     pub cell_start: Vec<u32>,
@@ -271,21 +305,7 @@ pub struct CellOrder {
 impl CellGrid {
     pub fn new(particles: &Particles, skin: f64) -> Self {
         let n = particles.len();
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for d in 0..3 {
-            let col = &particles.position[d];
-            lo[d] = col.par_iter().copied().reduce(|| f64::INFINITY, f64::min);
-            hi[d] = col
-                .par_iter()
-                .copied()
-                .reduce(|| f64::NEG_INFINITY, f64::max);
-        }
-        let max_radius = particles
-            .radius
-            .par_iter()
-            .copied()
-            .reduce(|| 0.0, f64::max);
+        let (lo, hi, max_radius) = bounds(particles);
         if n == 0 {
             return Self {
                 origin: [0.0; 3],
