@@ -213,7 +213,10 @@ impl Simulation {
                 failure = Some(f);
                 break;
             }
-            if last_log.elapsed().as_secs_f64() > 1.0 || k + 1 == steps {
+            // The bar moves every second; a plain log line every ten seconds. The
+            // message is made only when shown.
+            let interval = if bar.is_some() { 1.0 } else { 10.0 };
+            if last_log.elapsed().as_secs_f64() > interval || k + 1 == steps {
                 let elapsed = t0.elapsed().as_secs_f64();
                 let rate = (k + 1) as f64 / elapsed;
                 let clock = self.world.resource::<SimClock>();
@@ -227,11 +230,9 @@ impl Simulation {
                 if let Some(bar) = &bar {
                     bar.set_position(k + 1);
                     bar.set_message(msg);
-                } else if last_log.elapsed().as_secs_f64() > 10.0 || k + 1 == steps {
+                } else {
                     let eta = (steps - k - 1) as f64 / rate;
                     tracing::info!("step {}/{steps} {msg} ETA {eta:.0} s", k + 1);
-                } else {
-                    continue;
                 }
                 last_log = Instant::now();
             }
