@@ -711,3 +711,54 @@ fn carry_history(history: &ContactHistory, ids: &[u32], list: &VerletList) -> Ve
         });
     values
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use grainflow_components::NewParticle;
+
+    /// The one-pass bounds equal a serial fold over the columns, on one thread and on
+    /// three (the parts' minima and maxima combine exactly).
+    #[test]
+    fn bounds_equal_a_serial_fold_for_any_thread_count() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut particles = Particles::default();
+        for id in 0..10_000 {
+            particles.push(NewParticle {
+                id,
+                material: 0,
+                radius: 0.01 + 0.02 * uniform(),
+                density: 1000.0,
+                position: [2.0 * uniform() - 1.0, 3.0 * uniform(), uniform() - 5.0],
+                velocity: [0.0; 3],
+                angular_velocity: [0.0; 3],
+            });
+        }
+        let lo = particles
+            .position
+            .each_ref()
+            .map(|c| c.iter().copied().fold(f64::INFINITY, f64::min));
+        let hi = particles
+            .position
+            .each_ref()
+            .map(|c| c.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        let r = particles.radius.iter().copied().fold(0.0, f64::max);
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            assert_eq!(
+                pool.install(|| bounds(&particles)),
+                (lo, hi, r),
+                "{threads} threads"
+            );
+        }
+    }
+}
