@@ -723,13 +723,8 @@ mod tests {
     /// three (the parts' minima and maxima combine exactly).
     #[test]
     fn bounds_equal_a_serial_fold_for_any_thread_count() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut uniform = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut state = 7u64;
+        let mut uniform = || crate::inflow::next_f64(&mut state);
         let mut particles = Particles::default();
         for id in 0..10_000 {
             particles.push(NewParticle {
