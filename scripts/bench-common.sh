@@ -18,3 +18,56 @@ benchmark_state() {
   [[ -s $data ]] || WORK=$WORK N=$2 STATES=$1 REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
   echo "$data"
 }
+
+# core_round_trip: prints the median round trip, in ns, of a cache line passed back and
+# forth between two threads (on two cores: both spin), five tries of 100,000 round trips.
+# On a shared virtual machine the host moves the two vCPUs between its cores: on the Zen 5
+# of 2026-12-02 the round trip was 55-70 ns at times (the two vCPUs on cores that share an
+# L3 cache) and 400-450 ns at others (apart), and two-thread runs of the loose state
+# made 260-290 M particle-steps/s in the first case and 205-230 M in the second, with the
+# same binary (docs/performance.md). The benchmark scripts record it beside each
+# two-thread run.
+core_round_trip() {
+  if [[ ! -x $OUT/round_trip ]]; then
+    cat > "$OUT/round_trip.c" <<'C'
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <time.h>
+#define ROUNDS 100000L
+static _Atomic long line;
+static void *echo(void *arg) {
+    (void)arg;
+    for (long i = 0; i < ROUNDS; i++) {
+        while (atomic_load_explicit(&line, memory_order_acquire) != 2 * i + 1) {}
+        atomic_store_explicit(&line, 2 * i + 2, memory_order_release);
+    }
+    return 0;
+}
+int main(void) {
+    double ns[5];
+    for (int k = 0; k < 5; k++) {
+        atomic_store(&line, 0);
+        pthread_t t;
+        pthread_create(&t, 0, echo, 0);
+        struct timespec a, b;
+        clock_gettime(CLOCK_MONOTONIC, &a);
+        for (long i = 0; i < ROUNDS; i++) {
+            atomic_store_explicit(&line, 2 * i + 1, memory_order_release);
+            while (atomic_load_explicit(&line, memory_order_acquire) != 2 * i + 2) {}
+        }
+        clock_gettime(CLOCK_MONOTONIC, &b);
+        pthread_join(t, 0);
+        ns[k] = ((b.tv_sec - a.tv_sec) * 1e9 + (b.tv_nsec - a.tv_nsec)) / ROUNDS;
+    }
+    for (int i = 0; i < 5; i++)
+        for (int j = i + 1; j < 5; j++)
+            if (ns[j] < ns[i]) { double s = ns[i]; ns[i] = ns[j]; ns[j] = s; }
+    printf("%.0f\n", ns[2]);
+    return 0;
+}
+C
+    gcc -O2 -pthread -o "$OUT/round_trip" "$OUT/round_trip.c"
+  fi
+  "$OUT/round_trip"
+}

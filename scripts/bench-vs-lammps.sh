@@ -7,8 +7,10 @@
 #
 # Knobs: REPS [3], THREADS ["1 2"], INTEGRATORS ["gear velocity_verlet"], STATES
 # ["dense loose"], LAMMPS [1: run LAMMPS first], LAMMPS_NPS ["1"], SHARED [../shared],
-# WORK [/var/tmp/dem-peers] (data files, logs). Needs: apt-get install -y lammps openmpi-bin.
-# Prints a table of particle-steps/s (medians) and the ratios to LAMMPS on 1 rank.
+# WORK [/var/tmp/dem-peers] (data files, logs). Needs: apt-get install -y lammps openmpi-bin
+# (and gcc, for the core-to-core probe). Prints a table of particle-steps/s (medians), the
+# ratios to LAMMPS on 1 rank, and the thread ratios per repetition with the core-to-core
+# round trip around each multi-thread run (scripts/bench-common.sh).
 set -euo pipefail
 source "$(dirname "$0")/bench-common.sh"
 REPS=${REPS:-3}
@@ -34,7 +36,7 @@ for f in $(ls -t "$WORK"/logs/results_*.tsv 2>/dev/null || true); do
 done
 
 results="$WORK/logs/grainflow_$(date +%Y%m%d_%H%M%S).tsv"
-printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\n" > "$results"
+printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\tround_trip_ns\n" > "$results"
 for st in $STATES; do
   for integ in $INTEGRATORS; do
     # The thread counts alternate within each repetition, so that a machine whose speed
@@ -43,10 +45,15 @@ for st in $STATES; do
       for t in $THREADS; do
         wait_idle
         out="$WORK/grainflow_${st}_${integ}_t${t}"
+        # Where the host has put the vCPUs, just before and just after a multi-thread
+        # run (the larger round trip is kept; bench-common.sh).
+        trip=""
+        if (( t > 1 )); then trip=$(core_round_trip); fi
         "$BIN" run "$ROOT/cases/bench-hopper-$st.toml" --threads "$t" --out "$out" \
           --set "simulation.integrator=\"$integ\"" --set "lammps.0.file=\"$WORK/${st}_50000.data\"" >/dev/null 2>&1
+        if (( t > 1 )); then trip=$(printf "%s\n%s\n" "$trip" "$(core_round_trip)" | sort -n | tail -1); fi
         rate=$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['particle_steps_per_s'])" "$out/summary.json")
-        printf "%s\t%s\t%s\t%s\t%s\t%s\n" "$st" "$integ" "$t" "$rep" "$rate" "$BUSY" | tee -a "$results"
+        printf "%s\t%s\t%s\t%s\t%s\t%s\t%s\n" "$st" "$integ" "$t" "$rep" "$rate" "$BUSY" "$trip" | tee -a "$results"
       done
     done
   done
@@ -76,15 +83,35 @@ for st in sorted({k[0] for k in g} | {k[0] for k in lam}):
             print(f"{st:<7}{'grainflow ' + integ:<26}{t:>8}{m/1e6:>10.3f}{m/t/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}")
 # Per repetition, each thread count's rate over the first's (same minute); their median.
 print(f"\n{'state':<7}{'integrator':<18}{'threads':>8}{'ratio per repetition':>32}{'median':>8}")
-reps = defaultdict(dict)
+# NEAR: the largest core-to-core round trip (ns) around a run for which its vCPUs count as
+# sharing an L3 cache (scripts/bench-common.sh: 55-70 ns then, 120-450 ns apart).
+NEAR = 100
+reps, trips = defaultdict(dict), {}
 for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
-    reps[(r["state"], r["integrator"])].setdefault(r["rep"], {})[int(r["threads"])] = float(r["particle_steps_per_s"])
+    key = (r["state"], r["integrator"])
+    reps[key].setdefault(r["rep"], {})[int(r["threads"])] = float(r["particle_steps_per_s"])
+    if r.get("round_trip_ns"):
+        trips[key + (r["rep"], int(r["threads"]))] = float(r["round_trip_ns"])
+near_lines = []
 for (st, integ), by_rep in sorted(reps.items()):
     counts = sorted({t for v in by_rep.values() for t in v})
     for t in counts[1:]:
-        ratios = [v[t] / v[counts[0]] for v in by_rep.values() if t in v and counts[0] in v]
-        if ratios:
-            cells = " ".join(f"{x:.2f}" for x in ratios)
-            print(f"{st:<7}{integ:<18}{f'{t}/{counts[0]}':>8}{cells:>32}{statistics.median(ratios):>8.2f}")
+        rows = [(v[t] / v[counts[0]], trips.get((st, integ, rep, t)))
+                for rep, v in by_rep.items() if t in v and counts[0] in v]
+        if rows:
+            cells = " ".join(f"{x:.2f}" for x, _ in rows)
+            print(f"{st:<7}{integ:<18}{f'{t}/{counts[0]}':>8}{cells:>32}{statistics.median(x for x, _ in rows):>8.2f}")
+            cells = " ".join(f"{ns:.0f}" if ns is not None else "-" for _, ns in rows)
+            print(f"{'':<7}{'round trip, ns':<18}{'':>8}{cells:>32}")
+            near = [x for x, ns in rows if ns is not None and ns < NEAR]
+            if near:
+                near_lines.append(f"{st:<7}{integ:<18}{f'{t}/{counts[0]}':>8}{len(near):>6} of {len(rows):<3}"
+                                  f"{statistics.median(near):>8.2f}")
+if near_lines:
+    print(f"\nRepetitions whose multi-thread run had its vCPUs on cores sharing an L3 cache "
+          f"(round trip below {NEAR} ns before and after), median ratio:")
+    print("\n".join(near_lines))
 print("\nMpstep/s: million particle-steps per second, median over the repetitions.")
+print("Round trip: a cache line passed between the run's two vCPUs (the larger of just before")
+print("and just after the run); the host moves the vCPUs between its cores.")
 PY
