@@ -21,12 +21,12 @@ benchmark_state() {
 
 # core_round_trip: prints the median round trip, in ns, of a cache line passed back and
 # forth between two threads (on two cores: both spin), five tries of 100,000 round trips.
-# On a shared virtual machine the host moves the two vCPUs between its cores: on the Zen 5
-# of 2026-12-02 the round trip was 55-70 ns at times (the two vCPUs on cores that share an
-# L3 cache) and 400-450 ns at others (apart), and two-thread runs of the loose state
-# made 260-290 M particle-steps/s in the first case and 205-230 M in the second, with the
-# same binary (docs/performance.md). The benchmark scripts record it beside each
-# two-thread run.
+# On a shared virtual machine the host moves the two vCPUs between its cores, and the
+# round trip says how far apart they are. On the Zen 5 of 2026-12-02 it ranged from 55 to
+# 450 ns within minutes; loose-state two-thread runs (velocity Verlet, same binary) made
+# 260-290 M particle-steps/s when the larger of the round trips just before and just after
+# the run stayed below about 350 ns, and 205-230 M in most runs where it reached 400-450 ns
+# (docs/performance.md). The benchmark scripts record it beside each two-thread run.
 core_round_trip() {
   if [[ ! -x $OUT/round_trip ]]; then
     cat > "$OUT/round_trip.c" <<'C'

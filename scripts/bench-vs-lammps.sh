@@ -83,9 +83,9 @@ for st in sorted({k[0] for k in g} | {k[0] for k in lam}):
             print(f"{st:<7}{'grainflow ' + integ:<26}{t:>8}{m/1e6:>10.3f}{m/t/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}")
 # Per repetition, each thread count's rate over the first's (same minute); their median.
 print(f"\n{'state':<7}{'integrator':<18}{'threads':>8}{'ratio per repetition':>32}{'median':>8}")
-# NEAR: the largest core-to-core round trip (ns) around a run for which its vCPUs count as
-# sharing an L3 cache (scripts/bench-common.sh: 55-70 ns then, 120-450 ns apart).
-NEAR = 100
+# NEAR: below this core-to-core round trip (ns), before and after a run, the host had its
+# vCPUs near each other (scripts/bench-common.sh: 400-450 ns when apart).
+NEAR = 350
 reps, trips = defaultdict(dict), {}
 for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
     key = (r["state"], r["integrator"])
@@ -108,7 +108,7 @@ for (st, integ), by_rep in sorted(reps.items()):
                 near_lines.append(f"{st:<7}{integ:<18}{f'{t}/{counts[0]}':>8}{len(near):>6} of {len(rows):<3}"
                                   f"{statistics.median(near):>8.2f}")
 if near_lines:
-    print(f"\nRepetitions whose multi-thread run had its vCPUs on cores sharing an L3 cache "
+    print(f"\nRepetitions whose multi-thread run had its vCPUs near each other "
           f"(round trip below {NEAR} ns before and after), median ratio:")
     print("\n".join(near_lines))
 print("\nMpstep/s: million particle-steps per second, median over the repetitions.")

@@ -54,8 +54,8 @@ pairs = collections.defaultdict(list)
 for line in open(sys.argv[1]):
     state, _, one, two, stream, compute, trip = line.split()
     pairs[state].append((float(one) / 1e6, float(two) / 1e6, float(stream), float(compute), float(trip)))
-# Round trips below this (ns) count as the two vCPUs on cores sharing an L3 cache.
-NEAR = 100
+# Round trips below this (ns), before and after, count as the two vCPUs near each other.
+NEAR = 350
 print(f"# {sys.argv[2]}, M particle-steps/s; probes, one core against two: a 12 MiB streaming")
 print("# pass (stream) and a loop with no memory traffic (compute); round trip: a cache line")
 print("# passed between the two vCPUs, the larger of just before and just after the 2-thread run")
@@ -71,6 +71,6 @@ for state, rows in pairs.items():
           f"{statistics.median(r[3] for r in rows):.2f}x compute")
     near = [r[1] / r[0] for r in rows if r[4] < NEAR]
     if near:
-        print(f"{state:6s} pairs with the vCPUs sharing an L3 (round trip < {NEAR} ns): {len(near)} of "
+        print(f"{state:6s} pairs with the vCPUs near each other (round trip < {NEAR} ns): {len(near)} of "
               f"{len(rows)}, median pair ratio {statistics.median(near):.2f}x")
 EOF
