@@ -24,8 +24,8 @@ benchmark_state() {
 # On a shared virtual machine the host moves the two vCPUs between its cores, and the
 # round trip says how far apart they are. On the Zen 5 of 2026-12-02 it ranged from 55 to
 # 450 ns within minutes; loose-state two-thread runs (velocity Verlet, same binary) made
-# 260-290 M particle-steps/s when the larger of the round trips just before and just after
-# the run stayed below about 350 ns, and 205-230 M in most runs where it reached 400-450 ns
+# 260-300 M particle-steps/s when the larger of the round trips just before and just after
+# the run stayed below about 350 ns, and 205-232 M in most runs where it reached 370-450 ns
 # (docs/performance.md). The benchmark scripts record it beside each two-thread run.
 core_round_trip() {
   if [[ ! -x $OUT/round_trip ]]; then

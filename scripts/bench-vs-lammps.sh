@@ -84,7 +84,7 @@ for st in sorted({k[0] for k in g} | {k[0] for k in lam}):
 # Per repetition, each thread count's rate over the first's (same minute); their median.
 print(f"\n{'state':<7}{'integrator':<18}{'threads':>8}{'ratio per repetition':>32}{'median':>8}")
 # NEAR: below this core-to-core round trip (ns), before and after a run, the host had its
-# vCPUs near each other (scripts/bench-common.sh: 400-450 ns when apart).
+# vCPUs near each other (scripts/bench-common.sh: 370-450 ns when apart).
 NEAR = 350
 reps, trips = defaultdict(dict), {}
 for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
