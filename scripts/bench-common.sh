@@ -26,7 +26,10 @@ benchmark_state() {
 # 450 ns within minutes; loose-state two-thread runs (velocity Verlet, same binary) made
 # 260-300 M particle-steps/s when the larger of the round trips just before and just after
 # the run stayed below about 350 ns, and 205-232 M in most runs where it reached 370-450 ns
-# (docs/performance.md). The benchmark scripts record it beside each two-thread run.
+# (docs/performance.md). The benchmark scripts record it beside each two-thread run, and
+# count a run whose round trips before and after both stay below NEAR_ROUND_TRIP_NS as
+# one with its vCPUs near each other.
+NEAR_ROUND_TRIP_NS=350
 core_round_trip() {
   if [[ ! -x $OUT/round_trip ]]; then
     cat > "$OUT/round_trip.c" <<'C'
@@ -70,4 +73,12 @@ C
     gcc -O2 -pthread -o "$OUT/round_trip" "$OUT/round_trip.c"
   fi
   "$OUT/round_trip"
+}
+
+# round_trip_since BEFORE: the larger of the round trip BEFORE (taken before a run) and
+# one taken now.
+round_trip_since() {
+  local now
+  now=$(core_round_trip)
+  echo $(( $1 > now ? $1 : now ))
 }

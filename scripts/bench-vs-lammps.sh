@@ -51,7 +51,7 @@ for st in $STATES; do
         if (( t > 1 )); then trip=$(core_round_trip); fi
         "$BIN" run "$ROOT/cases/bench-hopper-$st.toml" --threads "$t" --out "$out" \
           --set "simulation.integrator=\"$integ\"" --set "lammps.0.file=\"$WORK/${st}_50000.data\"" >/dev/null 2>&1
-        if (( t > 1 )); then trip=$(printf "%s\n%s\n" "$trip" "$(core_round_trip)" | sort -n | tail -1); fi
+        if (( t > 1 )); then trip=$(round_trip_since "$trip"); fi
         rate=$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['particle_steps_per_s'])" "$out/summary.json")
         printf "%s\t%s\t%s\t%s\t%s\t%s\t%s\n" "$st" "$integ" "$t" "$rep" "$rate" "$BUSY" "$trip" | tee -a "$results"
       done
@@ -59,7 +59,7 @@ for st in $STATES; do
   done
 done
 
-python3 - "$results" "$lammps_tsv" <<'PY'
+python3 - "$results" "$lammps_tsv" "$NEAR_ROUND_TRIP_NS" <<'PY'
 import csv, statistics, sys
 from collections import defaultdict
 g = defaultdict(list)
@@ -84,8 +84,8 @@ for st in sorted({k[0] for k in g} | {k[0] for k in lam}):
 # Per repetition, each thread count's rate over the first's (same minute); their median.
 print(f"\n{'state':<7}{'integrator':<18}{'threads':>8}{'ratio per repetition':>32}{'median':>8}")
 # NEAR: below this core-to-core round trip (ns), before and after a run, the host had its
-# vCPUs near each other (scripts/bench-common.sh: 370-450 ns when apart).
-NEAR = 350
+# vCPUs near each other (NEAR_ROUND_TRIP_NS of scripts/bench-common.sh).
+NEAR = float(sys.argv[3])
 reps, trips = defaultdict(dict), {}
 for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
     key = (r["state"], r["integrator"])
@@ -109,7 +109,7 @@ for (st, integ), by_rep in sorted(reps.items()):
                                   f"{statistics.median(near):>8.2f}")
 if near_lines:
     print(f"\nRepetitions whose multi-thread run had its vCPUs near each other "
-          f"(round trip below {NEAR} ns before and after), median ratio:")
+          f"(round trip below {NEAR:.0f} ns before and after), median ratio:")
     print("\n".join(near_lines))
 print("\nMpstep/s: million particle-steps per second, median over the repetitions.")
 print("Round trip: a cache line passed between the run's two vCPUs (the larger of just before")

@@ -40,7 +40,7 @@ for state in $STATES; do
       line="$line $rate"
     done
     # Where the host had the two vCPUs: the larger round trip of before and after.
-    trip=$(printf "%s\n%s\n" "$before" "$(core_round_trip)" | sort -n | tail -1)
+    trip=$(round_trip_since "$before")
     probe=$(bash scripts/stream-scaling.sh 1)
     stream=$(sed -n 's/.*12 MiB: \([0-9.]*\)x.*/\1/p' <<< "$probe")
     compute=$(sed -n 's/.*compute: \([0-9.]*\)x.*/\1/p' <<< "$probe")
@@ -48,14 +48,15 @@ for state in $STATES; do
   done
 done
 
-python3 - "$OUT/pairs.txt" "$INTEGRATOR" <<'EOF'
+python3 - "$OUT/pairs.txt" "$INTEGRATOR" "$NEAR_ROUND_TRIP_NS" <<'EOF'
 import collections, statistics, sys
 pairs = collections.defaultdict(list)
 for line in open(sys.argv[1]):
     state, _, one, two, stream, compute, trip = line.split()
     pairs[state].append((float(one) / 1e6, float(two) / 1e6, float(stream), float(compute), float(trip)))
-# Round trips below this (ns), before and after, count as the two vCPUs near each other.
-NEAR = 350
+# Round trips below this (ns), before and after, count as the two vCPUs near each other
+# (NEAR_ROUND_TRIP_NS of scripts/bench-common.sh).
+NEAR = float(sys.argv[3])
 print(f"# {sys.argv[2]}, M particle-steps/s; probes, one core against two: a 12 MiB streaming")
 print("# pass (stream) and a loop with no memory traffic (compute); round trip: a cache line")
 print("# passed between the two vCPUs, the larger of just before and just after the 2-thread run")
@@ -71,6 +72,6 @@ for state, rows in pairs.items():
           f"{statistics.median(r[3] for r in rows):.2f}x compute")
     near = [r[1] / r[0] for r in rows if r[4] < NEAR]
     if near:
-        print(f"{state:6s} pairs with the vCPUs near each other (round trip < {NEAR} ns): {len(near)} of "
+        print(f"{state:6s} pairs with the vCPUs near each other (round trip < {NEAR:.0f} ns): {len(near)} of "
               f"{len(rows)}, median pair ratio {statistics.median(near):.2f}x")
 EOF
