@@ -194,13 +194,18 @@ fn correct_chunk<const AHEAD: bool>(
     let mut largest = Largest::default();
     for i in 0..n {
         let kick = h * (f[i] * im[i] + body(i));
-        v[i] = vh[i] + kick;
+        let mut vi = vh[i] + kick;
         if AHEAD {
-            predict_row([&mut x[i], &mut v[i], &mut vh[i]], kick, dt);
-            largest.half_velocity = largest.half_velocity.max(vh[i].abs().to_bits());
-            largest.position = largest.position.max(x[i].abs().to_bits());
-            largest.velocity = largest.velocity.max(v[i].abs().to_bits());
+            // The row in locals, written back once (as in the Gear corrector: through
+            // references into the slices, v was stored twice).
+            let (mut xi, mut vhi) = (x[i], vh[i]);
+            predict_row([&mut xi, &mut vi, &mut vhi], kick, dt);
+            largest.half_velocity = largest.half_velocity.max(vhi.abs().to_bits());
+            largest.position = largest.position.max(xi.abs().to_bits());
+            largest.velocity = largest.velocity.max(vi.abs().to_bits());
+            (x[i], vh[i]) = (xi, vhi);
         }
+        v[i] = vi;
     }
     largest
 }
