@@ -14,8 +14,10 @@ use std::time::Instant;
 use grainflow::run::Simulation;
 use grainflow_components::Particles;
 
-/// Dense-hopper throughput on 1 thread, particle-steps/s (docs/performance.md).
-const THROUGHPUT: [(&str, f64); 2] = [("gear", 13.0e6), ("velocity_verlet", 14.5e6)];
+/// Dense-hopper throughput on 1 thread, particle-steps/s: `REPS=3 bash
+/// scripts/bench-vs-lammps.sh`, 2026-12-02 19:12-19:21 UTC, commit c1cb26e, Zen 5
+/// (docs/performance.md, "Against LAMMPS, side by side").
+const THROUGHPUT: [(&str, f64); 2] = [("gear", 27.28e6), ("velocity_verlet", 26.83e6)];
 
 const R: f64 = 0.01;
 const V: f64 = 10.0;
