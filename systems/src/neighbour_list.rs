@@ -425,6 +425,42 @@ impl CellGrid {
     }
 }
 
+/// The non-empty member ranges (`cell_start` of the first and past the last cell) of the
+/// runs of cells around one cell: at most 9 rows of cells in y and z, each at most two
+/// runs of consecutive cell indices ([`CellGrid::x_runs`]).
+#[derive(Default)]
+struct Stencil {
+    cell: Option<u32>,
+    ranges: [(usize, usize); 18],
+    len: usize,
+}
+
+impl Stencil {
+    fn fill(&mut self, grid: &CellGrid, cell: u32, cell_start: &[u32]) {
+        let [cx, cy, cz] = grid.coords(cell);
+        let dims = grid.dims;
+        let runs = grid.x_runs(cx);
+        self.len = 0;
+        for gz in cz.saturating_sub(1)..(cz + 2).min(dims[2]) {
+            for gy in cy.saturating_sub(1)..(cy + 2).min(dims[1]) {
+                for &(gx, len) in runs.iter().filter(|r| r.1 > 0) {
+                    let c = grid.cell([gx, gy, gz]);
+                    let (m0, m1) = (cell_start[c] as usize, cell_start[c + len] as usize);
+                    if m0 < m1 {
+                        self.ranges[self.len] = (m0, m1);
+                        self.len += 1;
+                    }
+                }
+            }
+        }
+        self.cell = Some(cell);
+    }
+
+    fn ranges(&self) -> &[(usize, usize)] {
+        &self.ranges[..self.len]
+    }
+}
+
 /// Build the half list: for each particle, the others of higher row index within
 /// `r_i + r_j + skin`, scanned over the 27 surrounding cells in cell order; then the owner
 /// of every pair and the reverse index (a counting sort of the pairs by partner).
@@ -443,7 +479,6 @@ fn build_half_list(
     let n = particles.len();
     let [x, y, z] = &particles.position;
     let r = &particles.radius;
-    let dims = grid.dims;
     let scan = tracing::info_span!("pair_scan").entered();
     let rows: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
@@ -451,32 +486,42 @@ fn build_half_list(
             let range = chunk * CHUNK..((chunk + 1) * CHUNK).min(n);
             let mut nbrs = Vec::with_capacity(range.len() * 6);
             let mut counts = Vec::with_capacity(range.len());
+            // The member ranges around the cell of the last row, kept while the rows
+            // stay in that cell (all its rows, when the rows are in cell order).
+            let mut stencil = Stencil::default();
             for i in range {
                 let before = nbrs.len();
-                let [cx, cy, cz] = grid.coords(cell_of[i]);
+                if stencil.cell != Some(cell_of[i]) {
+                    stencil.fill(grid, cell_of[i], cell_start);
+                }
                 let (xi, yi, zi, ri) = (x[i], y[i], z[i], r[i] + skin);
-                let mut consider = |j: usize| {
-                    let (dx, dy, dz) = (xi - x[j], yi - y[j], zi - z[j]);
-                    let cut = ri + r[j];
-                    if dx * dx + dy * dy + dz * dz < cut * cut {
-                        nbrs.push(j as u32);
-                    }
+                let within = |(xj, yj, zj, rj): (f64, f64, f64, f64)| {
+                    let (dx, dy, dz) = (xi - xj, yi - yj, zi - zj);
+                    let cut = ri + rj;
+                    dx * dx + dy * dy + dz * dz < cut * cut
                 };
-                let runs = grid.x_runs(cx);
-                for gz in cz.saturating_sub(1)..(cz + 2).min(dims[2]) {
-                    for gy in cy.saturating_sub(1)..(cy + 2).min(dims[1]) {
-                        for &(gx, len) in runs.iter().filter(|r| r.1 > 0) {
-                            // A run of cells with consecutive indices: its members are
-                            // one range.
-                            let c = grid.cell([gx, gy, gz]);
-                            let (m0, m1) = (cell_start[c] as usize, cell_start[c + len] as usize);
-                            match members {
-                                None => (m0.max(i + 1)..m1).for_each(&mut consider),
-                                Some(m) => m[m0..m1]
-                                    .iter()
-                                    .map(|&j| j as usize)
-                                    .filter(|&j| j > i)
-                                    .for_each(&mut consider),
+                for &(m0, m1) in stencil.ranges() {
+                    match members {
+                        // Rows in cell order: the members are the rows m0..m1, read as
+                        // slices (no index checks), from past row i.
+                        None => {
+                            let lo = m0.max(i + 1);
+                            if lo < m1 {
+                                let near = x[lo..m1].iter().zip(&y[lo..m1]);
+                                let near = near.zip(&z[lo..m1]).zip(&r[lo..m1]);
+                                for (k, (((&xj, &yj), &zj), &rj)) in near.enumerate() {
+                                    if within((xj, yj, zj, rj)) {
+                                        nbrs.push((lo + k) as u32);
+                                    }
+                                }
+                            }
+                        }
+                        Some(m) => {
+                            let later = m[m0..m1].iter().map(|&j| j as usize).filter(|&j| j > i);
+                            for j in later {
+                                if within((x[j], y[j], z[j], r[j])) {
+                                    nbrs.push(j as u32);
+                                }
                             }
                         }
                     }
