@@ -436,7 +436,9 @@ struct Stencil {
 }
 
 impl Stencil {
-    fn fill(&mut self, grid: &CellGrid, cell: u32, cell_start: &[u32]) {
+    /// With `rows_in_cell_order`, the runs of cells all before `cell` are left out: their
+    /// rows all come before the rows of `cell`, so they hold no partner of a higher row.
+    fn fill(&mut self, grid: &CellGrid, cell: u32, cell_start: &[u32], rows_in_cell_order: bool) {
         let [cx, cy, cz] = grid.coords(cell);
         let dims = grid.dims;
         let runs = grid.x_runs(cx);
@@ -445,6 +447,9 @@ impl Stencil {
             for gy in cy.saturating_sub(1)..(cy + 2).min(dims[1]) {
                 for &(gx, len) in runs.iter().filter(|r| r.1 > 0) {
                     let c = grid.cell([gx, gy, gz]);
+                    if rows_in_cell_order && c + len <= cell as usize {
+                        continue;
+                    }
                     let (m0, m1) = (cell_start[c] as usize, cell_start[c + len] as usize);
                     if m0 < m1 {
                         self.ranges[self.len] = (m0, m1);
@@ -492,7 +497,7 @@ fn build_half_list(
             for i in range {
                 let before = nbrs.len();
                 if stencil.cell != Some(cell_of[i]) {
-                    stencil.fill(grid, cell_of[i], cell_start);
+                    stencil.fill(grid, cell_of[i], cell_start, members.is_none());
                 }
                 let (xi, yi, zi, ri) = (x[i], y[i], z[i], r[i] + skin);
                 let within = |(xj, yj, zj, rj): (f64, f64, f64, f64)| {
