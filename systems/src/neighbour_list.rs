@@ -471,7 +471,8 @@ impl Stencil {
 /// of every pair and the reverse index (a counting sort of the pairs by partner).
 /// `members` lists the rows of each cell (`cell_start` order); `None` when the rows are
 /// themselves in cell order (just re-sorted): a cell's members are then a range of rows,
-/// and the scan starts past row `i`, skipping the lower half of the stencil unread.
+/// the runs of cells all before the particle's cell are not read at all
+/// ([`Stencil::fill`]), and the others are scanned from past row `i`.
 fn build_half_list(
     particles: &Particles,
     grid: &CellGrid,
