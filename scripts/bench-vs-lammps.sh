@@ -2,11 +2,11 @@
 # Side-by-side throughput of grainflow and LAMMPS on the hopper benchmark states of
 # shared/bench/lammps-hopper (N = 50,000; dense and loose), same machine, same session.
 #
-#   bash scripts/bench-vs-lammps.sh            # LAMMPS np 1, grainflow gear + verlet, 1 and 2 threads, 3 reps
+#   bash scripts/bench-vs-lammps.sh            # LAMMPS np 1 and 2, grainflow gear + verlet, 1 and 2 threads, 3 reps
 #   REPS=1 LAMMPS=0 bash scripts/bench-vs-lammps.sh   # grainflow only (re-use the last LAMMPS results)
 #
 # Knobs: REPS [3], THREADS ["1 2"], INTEGRATORS ["gear velocity_verlet"], STATES
-# ["dense loose"], LAMMPS [1: run LAMMPS first], LAMMPS_NPS ["1"], SHARED [../shared],
+# ["dense loose"], LAMMPS [1: run LAMMPS first], LAMMPS_NPS ["1 2"], SHARED [../shared],
 # WORK [/var/tmp/dem-peers] (data files, logs). Needs: apt-get install -y lammps openmpi-bin
 # (and gcc, for the core-to-core probe). Prints a table of particle-steps/s (medians), the
 # ratios to LAMMPS on 1 rank, and the thread ratios per repetition with the core-to-core
@@ -18,13 +18,23 @@ THREADS=${THREADS:-"1 2"}
 INTEGRATORS=${INTEGRATORS:-"gear velocity_verlet"}
 STATES=${STATES:-"dense loose"}
 LAMMPS=${LAMMPS:-1}
-LAMMPS_NPS=${LAMMPS_NPS:-1}
+LAMMPS_NPS=${LAMMPS_NPS:-"1 2"}
 source "$HARNESS/common.sh"
 
 mkdir -p "$WORK/logs"
 
 if [[ $LAMMPS == 1 ]]; then
-  WORK=$WORK STATES=$STATES NPS=$LAMMPS_NPS REPS=$REPS bash "$HARNESS/run_lammps.sh" | tee "$WORK/logs/lammps_last.txt"
+  # One call of the harness per repetition, so that its rank counts alternate within each
+  # repetition as the thread counts do below; the calls' tables are merged into one.
+  merged="$WORK/logs/results_$(date +%Y%m%d_%H%M%S)_merged.tsv"
+  : > "$WORK/logs/lammps_last.txt"
+  for rep in $(seq 1 "$REPS"); do
+    WORK=$WORK STATES=$STATES NPS=$LAMMPS_NPS REPS=1 bash "$HARNESS/run_lammps.sh" | tee -a "$WORK/logs/lammps_last.txt"
+    one=$(ls -t "$WORK"/logs/results_*.tsv | grep -v _merged | head -1)
+    if [[ $rep == 1 ]]; then head -1 "$one" > "$merged"; fi
+    tail -n +2 "$one" | awk -F'\t' -v OFS='\t' -v rep="$rep" '{$3 = rep; print}' >> "$merged"
+  done
+  touch "$merged"
 else
   # Only make sure the data files exist.
   WORK=$WORK STATES=$STATES REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
@@ -65,22 +75,27 @@ from collections import defaultdict
 g = defaultdict(list)
 for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
     g[(r["state"], r["integrator"], int(r["threads"]))].append(float(r["particle_steps_per_s"]))
-lam = defaultdict(list)
+lam, lam_reps = defaultdict(list), defaultdict(dict)
 if len(sys.argv) > 2 and sys.argv[2]:
     for r in csv.DictReader(open(sys.argv[2]), delimiter="\t"):
         if r.get("loop_s"):
-            lam[(r["state"].split("-")[-1], int(r["np"]))].append(int(r["atoms"]) * int(r["steps"]) / float(r["loop_s"]))
-print(f"\n{'state':<7}{'code':<26}{'threads':>8}{'Mpstep/s':>10}{'per core':>10}{'x LAMMPS np1':>14}")
+            rate = int(r["atoms"]) * int(r["steps"]) / float(r["loop_s"])
+            lam[(r["state"].split("-")[-1], int(r["np"]))].append(rate)
+            lam_reps[r["state"].split("-")[-1]].setdefault(r["rep"], {})[int(r["np"])] = rate
+# x LAMMPS np1: against LAMMPS on one rank; x LAMMPS same: against LAMMPS on as many ranks
+# as grainflow has threads (both on the same cores).
+print(f"\n{'state':<7}{'code':<26}{'threads':>8}{'Mpstep/s':>10}{'per core':>10}{'x LAMMPS np1':>14}{'x LAMMPS same':>15}")
 for st in sorted({k[0] for k in g} | {k[0] for k in lam}):
     base = statistics.median(lam[(st, 1)]) if lam.get((st, 1)) else None
     for (s, np_), v in sorted(lam.items()):
         if s == st:
             m = statistics.median(v)
-            print(f"{st:<7}{'lammps':<26}{np_:>8}{m/1e6:>10.3f}{m/np_/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}")
+            print(f"{st:<7}{'lammps':<26}{np_:>8}{m/1e6:>10.3f}{m/np_/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}{1.0:>15.2f}")
     for (s, integ, t), v in sorted(g.items()):
         if s == st:
             m = statistics.median(v)
-            print(f"{st:<7}{'grainflow ' + integ:<26}{t:>8}{m/1e6:>10.3f}{m/t/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}")
+            same = statistics.median(lam[(st, t)]) if lam.get((st, t)) else float("nan")
+            print(f"{st:<7}{'grainflow ' + integ:<26}{t:>8}{m/1e6:>10.3f}{m/t/1e6:>10.3f}{(m/base if base else float('nan')):>14.2f}{m/same:>15.2f}")
 # Per repetition, each thread count's rate over the first's (same minute); their median.
 print(f"\n{'state':<7}{'integrator':<18}{'threads':>8}{'ratio per repetition':>32}{'median':>8}")
 # NEAR: below this core-to-core round trip (ns), before and after a run, the host had its
@@ -93,6 +108,14 @@ for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
     if r.get("round_trip_ns"):
         trips[key + (r["rep"], int(r["threads"]))] = float(r["round_trip_ns"])
 near_lines = []
+# LAMMPS's own rank ratios (MPI, one rank bound to each core), for comparison.
+for st, by_rep in sorted(lam_reps.items()):
+    counts = sorted({n for v in by_rep.values() for n in v})
+    for n in counts[1:]:
+        rows = [v[n] / v[counts[0]] for v in by_rep.values() if n in v and counts[0] in v]
+        if rows:
+            cells = " ".join(f"{x:.2f}" for x in rows)
+            print(f"{st:<7}{'lammps (ranks)':<18}{f'{n}/{counts[0]}':>8}{cells:>32}{statistics.median(rows):>8.2f}")
 for (st, integ), by_rep in sorted(reps.items()):
     counts = sorted({t for v in by_rep.values() for t in v})
     for t in counts[1:]:
