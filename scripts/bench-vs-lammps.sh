@@ -10,7 +10,9 @@
 # WORK [/var/tmp/dem-peers] (data files, logs). Needs: apt-get install -y lammps openmpi-bin
 # (and gcc, for the core-to-core probe). Prints a table of particle-steps/s (medians), the
 # ratios to LAMMPS on 1 rank, and the thread ratios per repetition with the core-to-core
-# round trip around each multi-thread run (scripts/bench-common.sh).
+# round trip around each multi-thread run (scripts/bench-common.sh), and whether the
+# foundation issue's targets hold (one thread against LAMMPS, two threads against one,
+# bytes of state per particle).
 set -euo pipefail
 source "$(dirname "$0")/bench-common.sh"
 REPS=${REPS:-3}
@@ -46,7 +48,7 @@ for f in $(ls -t "$WORK"/logs/results_*.tsv 2>/dev/null || true); do
 done
 
 results="$WORK/logs/grainflow_$(date +%Y%m%d_%H%M%S).tsv"
-printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\tround_trip_ns\n" > "$results"
+printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\tround_trip_ns\tstate_bytes_per_particle\n" > "$results"
 for st in $STATES; do
   for integ in $INTEGRATORS; do
     # The thread counts alternate within each repetition, so that a machine whose speed
@@ -62,8 +64,8 @@ for st in $STATES; do
         "$BIN" run "$ROOT/cases/bench-hopper-$st.toml" --threads "$t" --out "$out" \
           --set "simulation.integrator=\"$integ\"" --set "lammps.0.file=\"$WORK/${st}_50000.data\"" >/dev/null 2>&1
         if (( t > 1 )); then trip=$(round_trip_since "$trip"); fi
-        rate=$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['particle_steps_per_s'])" "$out/summary.json")
-        printf "%s\t%s\t%s\t%s\t%s\t%s\t%s\n" "$st" "$integ" "$t" "$rep" "$rate" "$BUSY" "$trip" | tee -a "$results"
+        read -r rate bytes < <(python3 -c "import json,sys;s=json.load(open(sys.argv[1]));print(s['particle_steps_per_s'], s['state_bytes_per_particle'])" "$out/summary.json")
+        printf "%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n" "$st" "$integ" "$t" "$rep" "$rate" "$BUSY" "$trip" "$bytes" | tee -a "$results"
       done
     done
   done
@@ -134,6 +136,32 @@ if near_lines:
     print(f"\nRepetitions whose multi-thread run had its vCPUs near each other "
           f"(round trip below {NEAR:.0f} ns before and after), median ratio:")
     print("\n".join(near_lines))
+# The targets of the foundation issue (issue 2): one thread against LAMMPS on one rank
+# (Gear 3x dense and 2x loose, velocity Verlet 4x and 3x), two threads against one (the
+# median of the repetitions' ratios, at least 1.8) and the state's bytes per particle (at
+# most 300).
+ONE_THREAD = {("gear", "dense"): 3.0, ("gear", "loose"): 2.0,
+              ("velocity_verlet", "dense"): 4.0, ("velocity_verlet", "loose"): 3.0}
+state_bytes = defaultdict(list)
+for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
+    if r.get("state_bytes_per_particle"):
+        state_bytes[(r["state"], r["integrator"])].append(float(r["state_bytes_per_particle"]))
+print("\nTargets of issue 2:")
+for (st, integ), by_rep in sorted(reps.items()):
+    checks = []
+    one = g.get((st, integ, 1))
+    want = ONE_THREAD.get((integ, st))
+    if one and want and lam.get((st, 1)):
+        x = statistics.median(one) / statistics.median(lam[(st, 1)])
+        checks.append(f"1 thread {x:.2f}x LAMMPS (>= {want:.0f}x: {'met' if x >= want else 'NOT met'})")
+    ratios = [v[2] / v[1] for v in by_rep.values() if 1 in v and 2 in v]
+    if ratios:
+        x = statistics.median(ratios)
+        checks.append(f"2/1 threads {x:.2f} (>= 1.8: {'met' if x >= 1.8 else 'NOT met'})")
+    if state_bytes.get((st, integ)):
+        b = max(state_bytes[(st, integ)])
+        checks.append(f"{b:.1f} bytes/particle (<= 300: {'met' if b <= 300 else 'NOT met'})")
+    print(f"{st:<7}{integ:<18}" + "; ".join(checks))
 print("\nMpstep/s: million particle-steps per second, median over the repetitions.")
 print("Round trip: a cache line passed between the run's two vCPUs (the larger of just before")
 print("and just after the run); the host moves the vCPUs between its cores.")
