@@ -36,7 +36,6 @@ if [[ $LAMMPS == 1 ]]; then
     if [[ $rep == 1 ]]; then head -1 "$one" > "$merged"; fi
     tail -n +2 "$one" | awk -F'\t' -v OFS='\t' -v rep="$rep" '{$3 = rep; print}' >> "$merged"
   done
-  touch "$merged"
 else
   # Only make sure the data files exist.
   WORK=$WORK STATES=$STATES REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
@@ -74,9 +73,28 @@ done
 python3 - "$results" "$lammps_tsv" "$NEAR_ROUND_TRIP_NS" <<'PY'
 import csv, statistics, sys
 from collections import defaultdict
-g = defaultdict(list)
+# grainflow's runs: rates by (state, integrator, threads), by repetition, the round trips
+# and the state bytes per particle.
+g, reps, trips, state_bytes = defaultdict(list), defaultdict(dict), {}, defaultdict(list)
 for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
-    g[(r["state"], r["integrator"], int(r["threads"]))].append(float(r["particle_steps_per_s"]))
+    key, t, rate = (r["state"], r["integrator"]), int(r["threads"]), float(r["particle_steps_per_s"])
+    g[key + (t,)].append(rate)
+    reps[key].setdefault(r["rep"], {})[t] = rate
+    if r.get("round_trip_ns"):
+        trips[key + (r["rep"], t)] = float(r["round_trip_ns"])
+    if r.get("state_bytes_per_particle"):
+        state_bytes[key].append(float(r["state_bytes_per_particle"]))
+
+def rep_ratios(by_rep):
+    """{count: [(repetition, rate at count / rate at the smallest count)]} for every count
+    but the smallest, over the repetitions that ran both."""
+    counts = sorted({n for v in by_rep.values() for n in v})
+    out = {}
+    for n in counts[1:]:
+        rows = [(rep, v[n] / v[counts[0]]) for rep, v in by_rep.items() if n in v and counts[0] in v]
+        if rows:
+            out[n] = rows
+    return counts[0] if counts else None, out
 lam, lam_reps = defaultdict(list), defaultdict(dict)
 if len(sys.argv) > 2 and sys.argv[2]:
     for r in csv.DictReader(open(sys.argv[2]), delimiter="\t"):
@@ -103,34 +121,28 @@ print(f"\n{'state':<7}{'integrator':<18}{'threads':>8}{'ratio per repetition':>3
 # NEAR: below this core-to-core round trip (ns), before and after a run, the host had its
 # vCPUs near each other (NEAR_ROUND_TRIP_NS of scripts/bench-common.sh).
 NEAR = float(sys.argv[3])
-reps, trips = defaultdict(dict), {}
-for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
-    key = (r["state"], r["integrator"])
-    reps[key].setdefault(r["rep"], {})[int(r["threads"])] = float(r["particle_steps_per_s"])
-    if r.get("round_trip_ns"):
-        trips[key + (r["rep"], int(r["threads"]))] = float(r["round_trip_ns"])
 near_lines = []
 # LAMMPS's own rank ratios (MPI, one rank bound to each core), for comparison.
 for st, by_rep in sorted(lam_reps.items()):
-    counts = sorted({n for v in by_rep.values() for n in v})
-    for n in counts[1:]:
-        rows = [v[n] / v[counts[0]] for v in by_rep.values() if n in v and counts[0] in v]
-        if rows:
-            cells = " ".join(f"{x:.2f}" for x in rows)
-            print(f"{st:<7}{'lammps (ranks)':<18}{f'{n}/{counts[0]}':>8}{cells:>32}{statistics.median(rows):>8.2f}")
+    first, by_count = rep_ratios(by_rep)
+    for n, rows in by_count.items():
+        cells = " ".join(f"{x:.2f}" for _, x in rows)
+        print(f"{st:<7}{'lammps (ranks)':<18}{f'{n}/{first}':>8}{cells:>32}{statistics.median(x for _, x in rows):>8.2f}")
+median_two = {}
 for (st, integ), by_rep in sorted(reps.items()):
-    counts = sorted({t for v in by_rep.values() for t in v})
-    for t in counts[1:]:
-        rows = [(v[t] / v[counts[0]], trips.get((st, integ, rep, t)))
-                for rep, v in by_rep.items() if t in v and counts[0] in v]
-        if rows:
-            cells = " ".join(f"{x:.2f}" for x, _ in rows)
-            print(f"{st:<7}{integ:<18}{f'{t}/{counts[0]}':>8}{cells:>32}{statistics.median(x for x, _ in rows):>8.2f}")
-            cells = " ".join(f"{ns:.0f}" if ns is not None else "-" for _, ns in rows)
-            print(f"{'':<7}{'round trip, ns':<18}{'':>8}{cells:>32}")
-            near = [x for x, ns in rows if ns is not None and ns < NEAR]
-            if near:
-                near_lines.append(f"{st:<7}{integ:<18}{f'{t}/{counts[0]}':>8}{len(near):>6} of {len(rows):<3}"
+    first, by_count = rep_ratios(by_rep)
+    for t, rows in by_count.items():
+        rows = [(x, trips.get((st, integ, rep, t))) for rep, x in rows]
+        median = statistics.median(x for x, _ in rows)
+        if (first, t) == (1, 2):
+            median_two[(st, integ)] = median
+        cells = " ".join(f"{x:.2f}" for x, _ in rows)
+        print(f"{st:<7}{integ:<18}{f'{t}/{first}':>8}{cells:>32}{median:>8.2f}")
+        cells = " ".join(f"{ns:.0f}" if ns is not None else "-" for _, ns in rows)
+        print(f"{'':<7}{'round trip, ns':<18}{'':>8}{cells:>32}")
+        near = [x for x, ns in rows if ns is not None and ns < NEAR]
+        if near:
+            near_lines.append(f"{st:<7}{integ:<18}{f'{t}/{first}':>8}{len(near):>6} of {len(rows):<3}"
                                   f"{statistics.median(near):>8.2f}")
 if near_lines:
     print(f"\nRepetitions whose multi-thread run had its vCPUs near each other "
@@ -142,21 +154,16 @@ if near_lines:
 # most 300).
 ONE_THREAD = {("gear", "dense"): 3.0, ("gear", "loose"): 2.0,
               ("velocity_verlet", "dense"): 4.0, ("velocity_verlet", "loose"): 3.0}
-state_bytes = defaultdict(list)
-for r in csv.DictReader(open(sys.argv[1]), delimiter="\t"):
-    if r.get("state_bytes_per_particle"):
-        state_bytes[(r["state"], r["integrator"])].append(float(r["state_bytes_per_particle"]))
 print("\nTargets of issue 2:")
-for (st, integ), by_rep in sorted(reps.items()):
+for st, integ in sorted(reps):
     checks = []
     one = g.get((st, integ, 1))
     want = ONE_THREAD.get((integ, st))
     if one and want and lam.get((st, 1)):
         x = statistics.median(one) / statistics.median(lam[(st, 1)])
         checks.append(f"1 thread {x:.2f}x LAMMPS (>= {want:.0f}x: {'met' if x >= want else 'NOT met'})")
-    ratios = [v[2] / v[1] for v in by_rep.values() if 1 in v and 2 in v]
-    if ratios:
-        x = statistics.median(ratios)
+    if (st, integ) in median_two:
+        x = median_two[(st, integ)]
         checks.append(f"2/1 threads {x:.2f} (>= 1.8: {'met' if x >= 1.8 else 'NOT met'})")
     if state_bytes.get((st, integ)):
         b = max(state_bytes[(st, integ)])
