@@ -40,11 +40,14 @@ else
   # Only make sure the data files exist.
   WORK=$WORK STATES=$STATES REPS=0 bash "$HARNESS/run_lammps.sh" >/dev/null
 fi
-# The newest LAMMPS results with at least one timed run (a REPS=0 call writes a header only).
-lammps_tsv=""
-for f in $(ls -t "$WORK"/logs/results_*.tsv 2>/dev/null || true); do
-  if (( $(wc -l < "$f") > 1 )); then lammps_tsv=$f; break; fi
-done
+# This run's merged LAMMPS results; with LAMMPS=0 the newest results with at least one
+# timed run (a REPS=0 call writes a header only).
+lammps_tsv=${merged:-}
+if [[ -z $lammps_tsv ]]; then
+  for f in $(ls -t "$WORK"/logs/results_*.tsv 2>/dev/null || true); do
+    if (( $(wc -l < "$f") > 1 )); then lammps_tsv=$f; break; fi
+  done
+fi
 
 results="$WORK/logs/grainflow_$(date +%Y%m%d_%H%M%S).tsv"
 printf "state\tintegrator\tthreads\trep\tparticle_steps_per_s\tbusy_pct\tround_trip_ns\tstate_bytes_per_particle\n" > "$results"
@@ -143,7 +146,7 @@ for (st, integ), by_rep in sorted(reps.items()):
         near = [x for x, ns in rows if ns is not None and ns < NEAR]
         if near:
             near_lines.append(f"{st:<7}{integ:<18}{f'{t}/{first}':>8}{len(near):>6} of {len(rows):<3}"
-                                  f"{statistics.median(near):>8.2f}")
+                              f"{statistics.median(near):>8.2f}")
 if near_lines:
     print(f"\nRepetitions whose multi-thread run had its vCPUs near each other "
           f"(round trip below {NEAR:.0f} ns before and after), median ratio:")
