@@ -8,7 +8,9 @@ use grainflow_systems::fictitious::outside_the_fluid;
 use grainflow_systems::inflow::next_f64;
 use grainflow_systems::walls::{wall_contains, wall_distance};
 
-use crate::scene::{Axis, ForceMethodName, RegionSpec, Scene, SceneError, SurfaceSpec, WallSpec};
+use crate::scene::{
+    Axis, ForceMethodName, ParticleUpdateName, RegionSpec, Scene, SceneError, SurfaceSpec, WallSpec,
+};
 
 /// The pair table: E* from both materials, damping laws averaged when both materials use
 /// the same law.
@@ -536,6 +538,10 @@ fn insert_coupling(world: &mut World, scene: &Scene, n_s: u32, rows: usize) {
         method: match spec.force {
             ForceMethodName::SurfacePoints => ForceMethod::SurfacePoints,
             ForceMethodName::VolumeIntegral => ForceMethod::VolumeIntegral,
+        },
+        update: match spec.update {
+            ParticleUpdateName::FluidMomentum => ParticleUpdate::FluidMomentum,
+            ParticleUpdateName::Prescribed => ParticleUpdate::Prescribed,
         },
         rule: grainflow_systems::lebedev::lebedev_rule(spec.points).expect("validated rule"),
         subcycles: n_s,

@@ -18,6 +18,31 @@ pub enum ForceMethod {
     VolumeIntegral,
 }
 
+/// How a free particle's velocity follows from the flow at each fluid step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParticleUpdate {
+    /// The faces inside the particle start the fluid step at its rigid-body velocity and
+    /// move with the fluid through the step; the momentum they gain is the hydrodynamic
+    /// impulse on the particle (Sharma & Patankar 2005, J. Comput. Phys. 205:439: the
+    /// rigid motion from the momentum of the fluid inside the particle). The fluid inside
+    /// takes its pressure and viscous impulses in the same implicit solve as the fluid
+    /// around it, so the added mass is implicit: stable for any density ratio >= 1.
+    FluidMomentum,
+    /// The faces inside the particle are held at its rigid-body velocity through the
+    /// step (a Dirichlet condition, Wan & Turek 2006) and the force is computed from the
+    /// new flow by [`ForceMethod`]: explicit in the particle velocity.
+    Prescribed,
+}
+
+/// A fluid face inside a particle under [`ParticleUpdate::FluidMomentum`]: its index,
+/// the particle's row, and the rigid-body velocity it started the fluid step with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParticleFace {
+    pub face: u32,
+    pub row: u32,
+    pub start: [f64; 3],
+}
+
 /// Directions and weights of a quadrature rule on the unit sphere (weights sum to 1).
 #[derive(Debug, Clone, Default)]
 pub struct SphereRule {
@@ -35,7 +60,11 @@ pub struct Coupling {
     /// Exponent factor of the velocity blending phi = exp(-alpha Re_p) (Luo et al. 2007);
     /// `None`: no blending.
     pub alpha: Option<f64>,
+    /// Force on particles whose faces are held ([`ParticleUpdate::Prescribed`], and
+    /// fixed particles under any update).
     pub method: ForceMethod,
+    /// How free particles follow the flow.
+    pub update: ParticleUpdate,
     /// Force points of [`ForceMethod::SurfacePoints`].
     pub rule: SphereRule,
     /// DEM subcycles per fluid step, n_s = int(dt_F / dt_D) + 1 (seed; Feng & Owen).
@@ -43,14 +72,16 @@ pub struct Coupling {
 }
 
 /// Level-set markers of the fluid cells (seed: 0 outer, p boundary, -p inner cell of
-/// particle p = row + 1 of the current particle order), the list of marked cells, and the
+/// particle p = row + 1 of the current particle order), the list of marked cells, the
 /// faces held at a particle's rigid-body velocity at the last marking (so that clearing
-/// costs what marking cost, not the grid).
+/// costs what marking cost, not the grid), and the faces inside free particles under
+/// [`ParticleUpdate::FluidMomentum`] (sorted by face; each face belongs to one particle).
 #[derive(Resource, Debug, Clone, Default)]
 pub struct CellMarkers {
     pub marker: Vec<i32>,
     pub marked: Vec<u32>,
     pub rigid_faces: Vec<u32>,
+    pub particle_faces: Vec<ParticleFace>,
 }
 
 /// Hydrodynamic force and torque on every particle from the last fluid step, added to

@@ -24,7 +24,9 @@ pub use contact_law::{
     AdhesionLaw, ContactLaw, ContactLaws, FrictionLaw, HistoryLayout, RollingLaw,
     TangentialStiffness, WallHistory,
 };
-pub use coupling::{CellMarkers, Coupling, ForceMethod, HydroForces, SphereRule};
+pub use coupling::{
+    CellMarkers, Coupling, ForceMethod, HydroForces, ParticleFace, ParticleUpdate, SphereRule,
+};
 pub use fluid::{FluidFlow, FluidStats};
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};

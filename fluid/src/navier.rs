@@ -351,6 +351,12 @@ impl NavierStokes {
         &self.grid
     }
 
+    /// The lumped Q1~ mass of every face (density 1): the fluid volume a face's velocity
+    /// carries.
+    pub fn lumped_mass(&self) -> &[f64] {
+        &self.ml
+    }
+
     /// The faces with prescribed velocity.
     pub fn mask(&self) -> &[bool] {
         &self.mask

@@ -34,7 +34,8 @@
 //! the later particle.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    CellMarkers, Coupling, FluidFlow, HydroForces, Particles, RunHealth, SimClock,
+    CellMarkers, Clamped, Coupling, FluidFlow, HydroForces, ParticleFace, ParticleUpdate,
+    Particles, RunHealth, SimClock,
 };
 use grainflow_fluid::Grid;
 
@@ -43,6 +44,13 @@ use crate::hydrodynamic::add_force;
 /// Whether the world couples particles and fluid.
 pub fn has_coupling(w: &World) -> bool {
     w.contains_resource::<Coupling>()
+}
+
+/// Whether the faces inside particle row `i` are held at its rigid-body velocity through
+/// the fluid step (a fixed particle, or the scene's [`ParticleUpdate::Prescribed`]), or
+/// start the step at it and move with the fluid ([`ParticleUpdate::FluidMomentum`]).
+pub fn holds_faces(coupling: &Coupling, clamped: Option<&Clamped>, i: usize) -> bool {
+    coupling.update == ParticleUpdate::Prescribed || clamped.is_some_and(|c| c.held[i])
 }
 
 /// Index ranges `[lo, hi)` per direction of the cells that the box `x_p +- reach` meets.
@@ -78,6 +86,7 @@ pub fn velocity_blending(
     clock: Res<SimClock>,
     coupling: Res<Coupling>,
     particles: Res<Particles>,
+    clamped: Option<Res<Clamped>>,
     mut markers: ResMut<CellMarkers>,
     mut flow: ResMut<FluidFlow>,
     mut hydro: ResMut<HydroForces>,
@@ -105,6 +114,7 @@ pub fn velocity_blending(
         marker,
         marked,
         rigid_faces,
+        particle_faces,
     } = &mut *markers;
     if marker.len() != lay.num_cells() {
         *marker = vec![0; lay.num_cells()];
@@ -114,12 +124,13 @@ pub fn velocity_blending(
     }
     marked.clear();
     let released = std::mem::take(rigid_faces);
+    particle_faces.clear();
     let blending = coupling.alpha.is_some();
     let mut layer: Vec<(u32, u32)> = Vec::new(); // (face, particle row) to blend
+    // (face, depth r - |x - x_p| as ordered bits, particle row) of every face inside a
+    // particle: a face inside several belongs to the one it lies deepest in
+    let mut inside: Vec<(u32, u64, u32)> = Vec::new();
     let dt_f = flow.dt;
-    // the velocity is taken out of the solver for the marking (and put back below), so
-    // that the solver's masks can be read beside it
-    let mut u = std::mem::take(&mut flow.solver.u);
     let box_mask = flow.solver.box_mask();
     for i in 0..particles.len() {
         let p = i as i32 + 1;
@@ -154,14 +165,10 @@ pub fn velocity_blending(
                             if box_mask[idx] {
                                 continue; // the box's boundary condition holds
                             }
-                            let inside =
-                                (0..3).map(|d| (x[d] - xp[d]).powi(2)).sum::<f64>() < r * r;
-                            if inside {
-                                rigid_faces.push(idx as u32);
-                                let v = rigid_velocity(&particles, i, x);
-                                for d in 0..3 {
-                                    u[d][idx] = v[d];
-                                }
+                            let d2 = (0..3).map(|d| (x[d] - xp[d]).powi(2)).sum::<f64>();
+                            if d2 < r * r {
+                                let depth = r - d2.sqrt();
+                                inside.push((idx as u32, !depth.to_bits(), i as u32));
                             } else if blending && m > 0 {
                                 layer.push((idx as u32, i as u32));
                             }
@@ -171,8 +178,27 @@ pub fn velocity_blending(
             }
         }
     }
-    rigid_faces.sort_unstable();
-    rigid_faces.dedup();
+    // each face once (a cell's faces are visited from both its cells), to its deepest
+    // particle (positive depths order as their bits; the complement sorts deepest first)
+    inside.sort_unstable();
+    inside.dedup_by_key(|&mut (face, _, _)| face);
+    for &(idx, _, i) in &inside {
+        let (a, f) = lay.face_of(idx as usize);
+        let x = grid.face_centre(a, f);
+        let v = rigid_velocity(&particles, i as usize, x);
+        for d in 0..3 {
+            flow.solver.u[d][idx as usize] = v[d];
+        }
+        if holds_faces(&coupling, clamped.as_deref(), i as usize) {
+            rigid_faces.push(idx);
+        } else {
+            particle_faces.push(ParticleFace {
+                face: idx,
+                row: i,
+                start: v,
+            });
+        }
+    }
     flow.solver.move_mask(&released, rigid_faces);
     layer.sort_unstable();
     layer.dedup();
@@ -185,12 +211,12 @@ pub fn velocity_blending(
         col.fill(0.0);
     }
     if let Some(alpha) = coupling.alpha {
-        let mask = flow.solver.mask();
+        let inside: Vec<u32> = inside.iter().map(|&(face, _, _)| face).collect();
+        let u = &mut flow.solver.u;
         blend(
-            &grid, &layer, mask, alpha, &coupling, &particles, dt_f, &mut u, &mut hydro,
+            &grid, &layer, &inside, alpha, &coupling, &particles, dt_f, u, &mut hydro,
         );
     }
-    flow.solver.u = u;
 }
 
 /// Half the diagonal of a cell: how far past a sphere its marked cells reach.
@@ -237,13 +263,14 @@ pub fn outside_the_fluid(grid: &Grid, particles: &Particles) -> Option<(usize, S
     })
 }
 
-/// The smooth transition on the `layer` faces (face, particle row) that are not masked,
-/// with the momentum it moves booked to the particles (module docs).
+/// The smooth transition on the `layer` faces (face, particle row) that are not inside
+/// any particle (`inside`, sorted), with the momentum it moves booked to the particles
+/// (module docs).
 #[allow(clippy::too_many_arguments)]
 fn blend(
     grid: &Grid,
     layer: &[(u32, u32)],
-    mask: &[bool],
+    inside: &[u32],
     alpha: f64,
     coupling: &Coupling,
     particles: &Particles,
@@ -254,10 +281,10 @@ fn blend(
     let lay = grid.layout();
     let momentum_rate = coupling.fluid_density * grid.cell_volume() / 6.0 / dt_f;
     for &(idx, i) in layer {
-        let idx = idx as usize;
-        if mask[idx] {
+        if inside.binary_search(&idx).is_ok() {
             continue;
         }
+        let idx = idx as usize;
         let (a, f) = lay.face_of(idx);
         let x = grid.face_centre(a, f);
         let i = i as usize;

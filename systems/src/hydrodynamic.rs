@@ -23,13 +23,14 @@
 //!   the sphere ([`volume_integral_force`]), computed at those faces only.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    ContactLaws, Coupling, FluidFlow, ForceMethod, HydroForces, Particles, Rotation,
+    CellMarkers, Clamped, ContactLaws, Coupling, FluidFlow, ForceMethod, HydroForces, ParticleFace,
+    Particles, Rotation,
 };
 use grainflow_fluid::sample::{cell_at, cell_stress};
 use grainflow_fluid::{Grid, NavierStokes};
 use rayon::prelude::*;
 
-use crate::fictitious::cell_range;
+use crate::fictitious::{cell_range, holds_faces};
 
 /// Force and torque on a sphere (centre `xp`, radius `r`) from the flow `u`, `p` (density 1)
 /// by the surface force points of `coupling.rule`, scaled by the fluid density.
@@ -141,6 +142,40 @@ fn fluid_stress(
     s
 }
 
+/// Force and torque on every particle from the momentum that the fluid faces inside it
+/// gained over the fluid step of length `dt_f` ([`ParticleUpdate::FluidMomentum`]):
+/// `F = rho_f sum_f M_f (u_f - u_f^0) / dt_F`, `T = rho_f sum_f (x_f - x_p) x M_f (u_f -
+/// u_f^0) / dt_F` over the faces `f` of the particle, with the lumped mass `M_f` and the
+/// rigid-body velocity `u_f^0` the face started the step with (Sharma & Patankar 2005,
+/// J. Comput. Phys. 205:439, the particle's momentum from the fluid's inside it). The
+/// faces are summed in face order: the result does not depend on the thread count.
+/// Rows without faces get zero.
+///
+/// [`ParticleUpdate::FluidMomentum`]: grainflow_components::ParticleUpdate
+pub fn fluid_momentum_force(
+    ns: &NavierStokes,
+    faces: &[ParticleFace],
+    particles: &Particles,
+    fluid_density: f64,
+    dt_f: f64,
+) -> Vec<([f64; 3], [f64; 3])> {
+    let grid = ns.grid();
+    let lay = grid.layout();
+    let ml = ns.lumped_mass();
+    let mut ft = vec![([0.0; 3], [0.0; 3]); particles.len()];
+    for pf in faces {
+        let (idx, i) = (pf.face as usize, pf.row as usize);
+        let (a, f) = lay.face_of(idx);
+        let x = grid.face_centre(a, f);
+        let arm = [0, 1, 2].map(|d| x[d] - particles.position[d][i]);
+        let rate = fluid_density * ml[idx] / dt_f;
+        let df = [0, 1, 2].map(|d| rate * (ns.u[d][idx] - pf.start[d]));
+        let (force, torque) = &mut ft[i];
+        add_force(force, torque, arm, df);
+    }
+    ft
+}
+
 /// Adds the force `df` acting at lever arm `arm` to the force `f` and torque `t`.
 pub(crate) fn add_force(f: &mut [f64; 3], t: &mut [f64; 3], arm: [f64; 3], df: [f64; 3]) {
     for d in 0..3 {
@@ -157,6 +192,8 @@ pub(crate) fn add_force(f: &mut [f64; 3], t: &mut [f64; 3], arm: [f64; 3], df: [
 pub fn hydrodynamic_sampling(
     coupling: Res<Coupling>,
     flow: Res<FluidFlow>,
+    markers: Res<CellMarkers>,
+    clamped: Option<Res<Clamped>>,
     laws: Option<Res<ContactLaws>>,
     mut hydro: ResMut<HydroForces>,
     mut particles: ResMut<Particles>,
@@ -167,9 +204,19 @@ pub fn hydrodynamic_sampling(
         hydro.sampled_steps = flow.stats.steps;
         let ns = &flow.solver;
         let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
+        let carried = fluid_momentum_force(
+            ns,
+            &markers.particle_faces,
+            &particles,
+            coupling.fluid_density,
+            flow.dt,
+        );
         let ft: Vec<([f64; 3], [f64; 3])> = (0..particles.len())
             .into_par_iter()
             .map(|i| {
+                if !holds_faces(&coupling, clamped.as_deref(), i) {
+                    return carried[i];
+                }
                 let xp = [0, 1, 2].map(|d| particles.position[d][i]);
                 let r = particles.radius[i];
                 match coupling.method {
@@ -262,6 +309,7 @@ mod tests {
                 viscosity: nu,
                 alpha: None,
                 method: ForceMethod::SurfacePoints,
+                update: grainflow_components::ParticleUpdate::Prescribed,
                 rule: crate::lebedev::lebedev_rule(110).unwrap(),
                 subcycles: 1,
             };
