@@ -127,8 +127,8 @@ pub struct ParticlesArgs {
     /// `RUN_DIR/particles_VIEW_series.png` for `--times`/`--frames`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Image size in pixels, WIDTHxHEIGHT (default 900x700; a series is 260 px wider per
-    /// panel, at least 900).
+    /// Image size in pixels, WIDTHxHEIGHT (default 900x700; a series 260 px per panel
+    /// + 250 wide, at least 900).
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Length unit of the scene, for the axis labels (e.g. cm for the seed's cases).
