@@ -25,7 +25,7 @@ pub enum Command {
     Run(RunArgs),
     /// Validate a scene; print its schedule, particle count and stable time steps.
     Check(CheckArgs),
-    /// Write PNG plots of a run: flow contour slices, particle time series.
+    /// Write PNG plots of a run: flow contour slices, particle time series, side views.
     Plot(crate::plot::PlotArgs),
 }
 

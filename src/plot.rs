@@ -6,6 +6,9 @@
 //!   as their circles of intersection.
 //! * `series`: particle velocity or position (one component or the magnitude) against
 //!   time, one line per particle id, from `particles.h5`.
+//! * `particles`: side views of the spheres of `particles.h5` (orthographic projection
+//!   along x, y or z, spheres to scale in depth order) at one or several frames, coloured
+//!   by speed, id or height.
 //!
 //! The reading part ([`FluidRun`], [`ParticleRun`], [`FluidGrid`]) does not depend on
 //! plotting and can be reused. Text needs a TrueType font: DejaVu Sans at [`DEFAULT_FONT`]
@@ -21,6 +24,7 @@ use std::sync::OnceLock;
 use clap::{Args, Subcommand, ValueEnum};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// The font file used for all text unless `GRAINFLOW_FONT` names another.
 pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
@@ -40,6 +44,8 @@ pub enum PlotKind {
     Contour(ContourArgs),
     /// Particle velocity or position against time (particles.h5), one line per id.
     Series(SeriesArgs),
+    /// Side view of the spheres (particles.h5) at one frame or several side by side.
+    Particles(ParticlesArgs),
 }
 
 #[derive(Args, Debug)]
@@ -91,6 +97,57 @@ pub struct SeriesArgs {
     /// Length unit of the scene, for the axis labels (e.g. cm for the seed's cases).
     #[arg(long, default_value = "m")]
     pub length_unit: String,
+}
+
+#[derive(Args, Debug)]
+#[command(group = clap::ArgGroup::new("frame_choice").args(["step", "time", "times", "frames"]))]
+pub struct ParticlesArgs {
+    /// Output directory of a run (holds particles.h5; fluid.h5 and fluid.xdmf give the box).
+    pub run_dir: PathBuf,
+    /// Projection axis: y shows x to the right and z up (seen from -y), x shows y and z
+    /// (seen from +x), z shows x and y (seen from above).
+    #[arg(long, value_enum, default_value = "y")]
+    pub view: View,
+    /// Frame of this step number.
+    #[arg(long)]
+    pub step: Option<u64>,
+    /// Frame nearest this simulated time, s (default: the last frame).
+    #[arg(long, allow_negative_numbers = true)]
+    pub time: Option<f64>,
+    /// Panels side by side at the frames nearest these times, s, e.g. 0.1,0.3,0.6.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub times: Vec<f64>,
+    /// Panels side by side at K frames evenly spaced over the run (first to last).
+    #[arg(long, value_name = "K")]
+    pub frames: Option<usize>,
+    /// Sphere colour: speed |v| (colour map and bar), id (cyclic palette) or height z.
+    #[arg(long, value_enum, default_value = "speed")]
+    pub color: SphereColour,
+    /// Output PNG (default `RUN_DIR/particles_VIEW_STEP.png`, or
+    /// `RUN_DIR/particles_VIEW_series.png` for `--times`/`--frames`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Image size in pixels, WIDTHxHEIGHT (default 900x700; a series 260 px per panel
+    /// + 250 wide, at least 900).
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Length unit of the scene, for the axis labels (e.g. cm for the seed's cases).
+    #[arg(long, default_value = "m")]
+    pub length_unit: String,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    X,
+    Y,
+    Z,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SphereColour {
+    Speed,
+    Id,
+    Z,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -177,6 +234,7 @@ pub fn main(args: PlotArgs) -> ExitCode {
     let result = match args.kind {
         PlotKind::Contour(a) => contour(&a),
         PlotKind::Series(a) => series(&a),
+        PlotKind::Particles(a) => particles(&a),
     };
     match result {
         Ok(path) => {
@@ -576,12 +634,36 @@ fn pick_frame(
     match time {
         None => Ok(last),
         Some(t) if !t.is_finite() => input(format!("--time: expected a finite time, got {t}")),
-        Some(t) => Ok(frames
-            .iter()
-            .copied()
-            .min_by(|a, b| (a.time - t).abs().total_cmp(&(b.time - t).abs()))
-            .expect("frames are not empty")),
+        Some(t) => Ok(nearest_frame(frames, t)),
     }
+}
+
+fn nearest_frame(frames: &[FrameInfo], t: f64) -> FrameInfo {
+    frames
+        .iter()
+        .copied()
+        .min_by(|a, b| (a.time - t).abs().total_cmp(&(b.time - t).abs()))
+        .expect("frames are not empty")
+}
+
+/// The frame nearest `t`, which must lie within the run (`arg` names the option).
+fn frame_in_run(
+    frames: &[FrameInfo],
+    t: f64,
+    arg: &str,
+    file: &Path,
+) -> Result<FrameInfo, PlotError> {
+    let (first, last) = (frames[0].time, frames[frames.len() - 1].time);
+    let tol = 1e-9 * first.abs().max(last.abs()).max(last - first);
+    if !(t >= first - tol && t <= last + tol) {
+        return input(format!(
+            "{arg} {t}: outside the run ({} has frames from t = {} to {} s)",
+            file.display(),
+            fmt_g(first),
+            fmt_g(last)
+        ));
+    }
+    Ok(nearest_frame(frames, t))
 }
 
 // ---------------------------------------------------------------------------------------
@@ -701,6 +783,16 @@ fn draw_err<E: std::fmt::Display>(out: &Path) -> impl Fn(E) -> PlotError + '_ {
 // ---------------------------------------------------------------------------------------
 // Contour slices
 
+/// The horizontal and vertical axes of a figure normal to `axis`: (y, z) for x, (x, z)
+/// for y, (x, y) for z.
+fn plane_axes(axis: usize) -> [usize; 2] {
+    match axis {
+        0 => [1, 2],
+        1 => [0, 2],
+        _ => [0, 1],
+    }
+}
+
 /// A 2D slice of a cell field: `values[i + nu * j]` at the centres of the in-plane cells,
 /// `u` the horizontal and `v` the vertical axis of the figure.
 #[derive(Clone, Debug)]
@@ -718,11 +810,7 @@ impl Slice {
     /// Cut `field` (one value per cell) at layer `layer` normal to `axis`. Horizontal and
     /// vertical axes: (x, y) for a z-plane, (x, z) for a y-plane, (y, z) for an x-plane.
     pub fn cut(grid: &FluidGrid, axis: usize, layer: usize, field: impl Fn(usize) -> f64) -> Self {
-        let axes = match axis {
-            0 => [1, 2],
-            1 => [0, 2],
-            _ => [0, 1],
-        };
+        let axes = plane_axes(axis);
         let n = [grid.n[axes[0]], grid.n[axes[1]]];
         let mut values = Vec::with_capacity(n[0] * n[1]);
         for j in 0..n[1] {
@@ -888,8 +976,7 @@ fn draw_contour(
     // Plot area with the physical aspect ratio; the block [labels, plot, colour bar,
     // bar labels] is centred in the image.
     let (left_labels, bottom_labels, pad) = (80u32, 55u32, 12u32);
-    let (bar_gap, bar_w, bar_labels) = (24u32, 36u32, 95u32);
-    let fixed = left_labels + pad + bar_gap + bar_w + bar_labels;
+    let fixed = left_labels + pad + BAR_BLOCK;
     let avail_w = bw.saturating_sub(fixed + 2 * pad).max(20) as f64;
     let avail_h = bh.saturating_sub(bottom_labels + 2 * pad).max(20) as f64;
     let (lu, lv) = (
@@ -903,7 +990,6 @@ fn draw_contour(
     let (top, bottom) = (pad + extra_h / 2, pad + extra_h - extra_h / 2);
     let split = (offset + left_labels + pw + pad).min(bw - 1);
     let (main, bar) = body.split_horizontally(split);
-    let (rest_w, _) = bar.dim_in_pixel();
     let labels = ("sans-serif", 14);
     let desc = ("sans-serif", 16);
 
@@ -959,13 +1045,35 @@ fn draw_contour(
         .map_err(&fail)?;
     let range = chart.plotting_area().get_pixel_range();
 
-    // Colour bar, as tall as the plot area.
-    let mut bar_chart = ChartBuilder::on(&bar)
+    draw_colour_bar(&bar, top, ph, (lo, hi), bar_label, out)?;
+    root.present().map_err(&fail)?;
+    Ok((range.0, range.1, (lo, hi)))
+}
+
+/// A colour bar block: the gap to the plot area, the bar, then its ticks and label.
+const BAR_GAP: u32 = 24;
+const BAR_W: u32 = 36;
+const BAR_BLOCK: u32 = BAR_GAP + BAR_W + 95;
+
+/// A vertical bar of [`colour_map`] from `lo` (bottom) to `hi` (top) with its ticks and
+/// `label`, at the left of `area`: `top` pixels below its top and `height` pixels tall
+/// (those of the plot area beside it).
+fn draw_colour_bar(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    top: u32,
+    height: u32,
+    (lo, hi): (f64, f64),
+    label: &str,
+    out: &Path,
+) -> Result<(), PlotError> {
+    let fail = draw_err(out);
+    let (w, h) = area.dim_in_pixel();
+    let mut bar_chart = ChartBuilder::on(area)
         .margin_top(top)
-        .margin_bottom(bottom + bottom_labels)
-        .margin_left(bar_gap)
-        .margin_right(rest_w.saturating_sub(bar_gap + bar_w + bar_labels))
-        .set_label_area_size(LabelAreaPosition::Right, bar_labels)
+        .margin_bottom(h.saturating_sub(top + height))
+        .margin_left(BAR_GAP)
+        .margin_right(w.saturating_sub(BAR_BLOCK))
+        .set_label_area_size(LabelAreaPosition::Right, BAR_BLOCK - BAR_GAP - BAR_W)
         .build_cartesian_2d(0.0..1.0, lo..hi)
         .map_err(&fail)?;
     {
@@ -982,15 +1090,14 @@ fn draw_contour(
         .configure_mesh()
         .disable_mesh()
         .disable_x_axis()
-        .y_desc(bar_label)
-        .label_style(labels)
-        .axis_desc_style(desc)
-        .y_labels((ph as usize / 45).clamp(2, 10))
+        .y_desc(label)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .y_labels((height as usize / 45).clamp(2, 10))
         .y_label_formatter(&|v| tick_label(*v, hi - lo))
         .draw()
         .map_err(&fail)?;
-    root.present().map_err(&fail)?;
-    Ok((range.0, range.1, (lo, hi)))
+    Ok(())
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1146,6 +1253,345 @@ fn draw_series(
         .map_err(&fail)?;
     root.present().map_err(&fail)?;
     Ok(())
+}
+
+// ---------------------------------------------------------------------------------------
+// Particle side views
+
+/// A sphere as drawn: centre and radius in the plane of the figure, fill colour.
+struct Disc {
+    centre: [f64; 2],
+    radius: f64,
+    colour: RGBColor,
+}
+
+/// One panel: its caption and its discs, farthest first.
+struct Panel {
+    caption: String,
+    discs: Vec<Disc>,
+}
+
+/// The background of the plot area and the outline of the spheres.
+const VIEW_BACKGROUND: RGBColor = RGBColor(240, 244, 250);
+const SPHERE_OUTLINE: RGBColor = RGBColor(30, 30, 30);
+
+/// The frames of `--frames`, `--times`, `--time` or `--step` (default: the last).
+fn particle_frames(
+    a: &ParticlesArgs,
+    frames: &[FrameInfo],
+    file: &Path,
+) -> Result<Vec<FrameInfo>, PlotError> {
+    if let Some(k) = a.frames {
+        let n = frames.len();
+        if k == 0 || k > n {
+            return input(format!(
+                "--frames {k}: expected 1 to {n} (the frames of {})",
+                file.display()
+            ));
+        }
+        if k == 1 {
+            return Ok(vec![frames[n - 1]]);
+        }
+        // Frame indices i (n - 1) / (k - 1), rounded: first to last, distinct.
+        return Ok((0..k)
+            .map(|i| frames[(2 * i * (n - 1) + k - 1) / (2 * (k - 1))])
+            .collect());
+    }
+    if !a.times.is_empty() {
+        return a
+            .times
+            .iter()
+            .map(|&t| frame_in_run(frames, t, "--times", file))
+            .collect();
+    }
+    match a.time {
+        Some(t) => frame_in_run(frames, t, "--time", file).map(|f| vec![f]),
+        None => pick_frame(frames, None, a.step, file).map(|f| vec![f]),
+    }
+}
+
+fn particles(a: &ParticlesArgs) -> Result<PathBuf, PlotError> {
+    let run = ParticleRun::open(&a.run_dir)?;
+    let file = run.dir.join("particles.h5");
+    let chosen = particle_frames(a, &run.frames, &file)?;
+    let frames = chosen
+        .iter()
+        .map(|&f| run.read(f))
+        .collect::<Result<Vec<_>, _>>()?;
+    if frames.iter().all(|f| f.id.is_empty()) {
+        return input(format!(
+            "RUN_DIR {}: particles.h5 holds no particles in the chosen frames",
+            a.run_dir.display()
+        ));
+    }
+    let axis = match a.view {
+        View::X => 0,
+        View::Y => 1,
+        View::Z => 2,
+    };
+    let axes = plane_axes(axis);
+    // The figure's box: the fluid domain, or the spheres' extent over the chosen frames.
+    let (lower, upper) = if a.run_dir.join("fluid.h5").is_file() {
+        let grid = FluidRun::open(&a.run_dir)?.grid;
+        (axes.map(|d| grid.lower[d]), axes.map(|d| grid.upper(d)))
+    } else {
+        let extent = |d: usize| {
+            let spheres = || {
+                frames.iter().flat_map(|f| {
+                    f.position
+                        .iter()
+                        .zip(&f.radius)
+                        .map(move |(p, r)| (p[d], *r))
+                })
+            };
+            (
+                spheres().map(|(x, r)| x - r).fold(f64::INFINITY, f64::min),
+                spheres()
+                    .map(|(x, r)| x + r)
+                    .fold(f64::NEG_INFINITY, f64::max),
+            )
+        };
+        let (e0, e1) = (extent(axes[0]), extent(axes[1]));
+        ([e0.0, e1.0], [e0.1, e1.1])
+    };
+    if !(0..2).all(|k| lower[k].is_finite() && upper[k] > lower[k]) {
+        return input(format!(
+            "{}: the spheres span no area seen along {} ({} from {} to {}, {} from {} to {})",
+            file.display(),
+            AXES[axis],
+            AXES[axes[0]],
+            lower[0],
+            upper[0],
+            AXES[axes[1]],
+            lower[1],
+            upper[1]
+        ));
+    }
+    let value = |f: &ParticleFrame, i: usize| match a.color {
+        SphereColour::Speed => {
+            let v = f.velocity[i];
+            (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+        }
+        SphereColour::Z => f.position[i][2],
+        SphereColour::Id => f64::from(f.id[i]),
+    };
+    let unit = &a.length_unit;
+    let bar = match a.color {
+        SphereColour::Id => None,
+        colour => {
+            let all = frames
+                .iter()
+                .flat_map(|f| (0..f.id.len()).map(move |i| (f, i)));
+            let range = value_range(all.map(|(f, i)| value(f, i))).ok_or_else(|| {
+                PlotError::Input(format!("{}: no finite values to colour by", file.display()))
+            })?;
+            let label = match colour {
+                SphereColour::Z => format!("z ({unit})"),
+                _ => format!("|v| ({unit}/s)"),
+            };
+            Some((label, range))
+        }
+    };
+    // Depth toward the viewer (at -y for a y view, +x and +z otherwise): farthest first.
+    let toward = if axis == 1 { -1.0 } else { 1.0 };
+    let panels: Vec<Panel> = frames
+        .iter()
+        .map(|f| {
+            let mut order: Vec<usize> = (0..f.id.len()).collect();
+            order.sort_by(|&i, &j| {
+                (toward * f.position[i][axis]).total_cmp(&(toward * f.position[j][axis]))
+            });
+            let discs = order
+                .into_iter()
+                .map(|i| Disc {
+                    centre: axes.map(|d| f.position[i][d]),
+                    radius: f.radius[i],
+                    colour: match &bar {
+                        Some((_, (lo, hi))) => colour_map((value(f, i) - lo) / (hi - lo)),
+                        None => LINE_COLOURS[f.id[i] as usize % LINE_COLOURS.len()],
+                    },
+                })
+                .collect();
+            Panel {
+                caption: format!("t = {} s (step {})", fmt_g(f.info.time), f.info.step),
+                discs,
+            }
+        })
+        .collect();
+    let series = a.frames.is_some() || !a.times.is_empty();
+    let view = AXES[axis];
+    let out = a.out.clone().unwrap_or_else(|| {
+        a.run_dir.join(if series {
+            format!("particles_{view}_series.png")
+        } else {
+            format!("particles_{view}_{:08}.png", chosen[0].step)
+        })
+    });
+    let size = a.size.unwrap_or(if series {
+        ((260 * panels.len() as u32 + 250).clamp(900, 10_000), 700)
+    } else {
+        (900, 700)
+    });
+    register_font()?;
+    let what = match a.color {
+        SphereColour::Speed => "speed |v|",
+        SphereColour::Id => "id",
+        SphereColour::Z => "height z",
+    };
+    let title = format!(
+        "spheres seen along {view} ({} to the right, {} up), coloured by {what}",
+        AXES[axes[0]], AXES[axes[1]]
+    );
+    let view_box = ViewBox {
+        lower,
+        upper,
+        labels: axes.map(|d| format!("{} ({unit})", AXES[d])),
+    };
+    let bar_ref = bar.as_ref().map(|(l, r)| (l.as_str(), *r));
+    let areas = draw_particles(&panels, &view_box, &title, bar_ref, size, &out)?;
+    for ((x, y), f) in areas.iter().zip(&frames) {
+        println!(
+            "plot area: x {}..{}, y {}..{} px; t = {} s (step {}), {} spheres",
+            x.start,
+            x.end,
+            y.start,
+            y.end,
+            fmt_g(f.info.time),
+            f.info.step,
+            f.id.len()
+        );
+    }
+    match &bar {
+        Some((label, (lo, hi))) => println!("{label} from {} to {}", fmt_g(*lo), fmt_g(*hi)),
+        None => println!("colour by id: {} colours, repeating", LINE_COLOURS.len()),
+    }
+    Ok(out)
+}
+
+/// The box of a side view in the figure's (horizontal, vertical) axes, and their labels.
+struct ViewBox {
+    lower: [f64; 2],
+    upper: [f64; 2],
+    labels: [String; 2],
+}
+
+/// Pixel ranges (horizontal, vertical) of a plot area in the image.
+type AreaRange = (std::ops::Range<i32>, std::ops::Range<i32>);
+
+/// Draw the panels side by side, all with the box `view_box` at one scale, equal in both
+/// directions, and one colour bar if `bar` is given. Returns the pixel ranges of the
+/// panels' plot areas.
+fn draw_particles(
+    panels: &[Panel],
+    view_box: &ViewBox,
+    title: &str,
+    bar: Option<(&str, (f64, f64))>,
+    size: (u32, u32),
+    out: &Path,
+) -> Result<Vec<AreaRange>, PlotError> {
+    let ViewBox {
+        lower,
+        upper,
+        labels,
+    } = view_box;
+    let fail = draw_err(out);
+    let root = BitMapBackend::new(out, size).into_drawing_area();
+    root.fill(&WHITE).map_err(&fail)?;
+    let title_px = (size.1 as f64 * 0.03).clamp(14.0, 22.0);
+    let body = root
+        .titled(title, ("sans-serif", title_px))
+        .map_err(&fail)?;
+    let (bw, bh) = body.dim_in_pixel();
+    // Per panel [labels, plot area, pad] under a caption; the colour bar after the last;
+    // the whole block centred. One scale (pixels per length unit) for both directions.
+    let k = panels.len() as u32;
+    let (left_labels, bottom_labels, pad, caption) = (80u32, 55u32, 12u32, 30u32);
+    let bar_block = if bar.is_some() { BAR_BLOCK } else { 0 };
+    let avail_w = (bw.saturating_sub(k * (left_labels + pad) + bar_block + 2 * pad) / k).max(10);
+    let avail_h = bh.saturating_sub(caption + bottom_labels + 2 * pad).max(10);
+    let (lu, lv) = (upper[0] - lower[0], upper[1] - lower[1]);
+    let scale = (avail_w as f64 / lu).min(avail_h as f64 / lv);
+    let (pw, ph) = (
+        ((lu * scale).round() as u32).max(1),
+        ((lv * scale).round() as u32).max(1),
+    );
+    let panel_w = left_labels + pw + pad;
+    let block_w = k * panel_w + bar_block;
+    let offset = bw.saturating_sub(block_w) / 2;
+    let top = pad + caption + avail_h.saturating_sub(ph) / 2;
+    let block = body.margin(0, 0, offset, bw.saturating_sub(offset + block_w));
+    let (row, bar_area) = block.split_horizontally(k * panel_w);
+    let mut ranges = Vec::new();
+    for (panel, area) in panels.iter().zip(row.split_evenly((1, k as usize))) {
+        let mut chart = ChartBuilder::on(&area)
+            .margin_top(top)
+            .margin_bottom(bh.saturating_sub(top + ph + bottom_labels))
+            .margin_right(pad)
+            .x_label_area_size(bottom_labels)
+            .y_label_area_size(left_labels)
+            .build_cartesian_2d(lower[0]..upper[0], lower[1]..upper[1])
+            .map_err(&fail)?;
+        {
+            let plot = chart.plotting_area().strip_coord_spec();
+            plot.fill(&VIEW_BACKGROUND).map_err(&fail)?;
+            let (w, h) = plot.dim_in_pixel();
+            let (sx, sy) = (w as f64 / lu, h as f64 / lv);
+            for disc in &panel.discs {
+                let cx = (disc.centre[0] - lower[0]) * sx;
+                let cy = (upper[1] - disc.centre[1]) * sy;
+                // At least a pixel across; a 1-pixel outline from 2.5 pixels of radius.
+                let r = (disc.radius * sx).max(0.8);
+                let rim = if r >= 2.5 { r - 1.0 } else { r };
+                let x0 = (cx - r).floor().max(0.0);
+                let x1 = (cx + r).ceil().min(w as f64 - 1.0);
+                let y0 = (cy - r).floor().max(0.0);
+                let y1 = (cy + r).ceil().min(h as f64 - 1.0);
+                if x0 > x1 || y0 > y1 {
+                    continue;
+                }
+                for py in y0 as i32..=y1 as i32 {
+                    for px in x0 as i32..=x1 as i32 {
+                        let d = (px as f64 + 0.5 - cx).hypot(py as f64 + 0.5 - cy);
+                        if d <= r {
+                            let c = if d > rim {
+                                &SPHERE_OUTLINE
+                            } else {
+                                &disc.colour
+                            };
+                            plot.draw_pixel((px, py), c).map_err(&fail)?;
+                        }
+                    }
+                }
+            }
+        }
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(&labels[0])
+            .y_desc(&labels[1])
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .x_labels((pw as usize / 70).clamp(2, 10))
+            .y_labels((ph as usize / 45).clamp(2, 12))
+            .x_label_formatter(&|x| tick_label(*x, lu))
+            .y_label_formatter(&|y| tick_label(*y, lv))
+            .draw()
+            .map_err(&fail)?;
+        let style = TextStyle::from(("sans-serif", 16).into_font())
+            .pos(Pos::new(HPos::Center, VPos::Bottom));
+        area.draw_text(
+            &panel.caption,
+            &style,
+            ((left_labels + pw / 2) as i32, top as i32 - 8),
+        )
+        .map_err(&fail)?;
+        ranges.push(chart.plotting_area().get_pixel_range());
+    }
+    if let Some((label, range)) = bar {
+        draw_colour_bar(&bar_area, top, ph, range, label, out)?;
+    }
+    root.present().map_err(&fail)?;
+    Ok(ranges)
 }
 
 #[cfg(test)]

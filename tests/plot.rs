@@ -1,7 +1,9 @@
-//! `grainflow plot` (src/plot.rs): contour slices of a small flow run and time series of a
-//! small particle run are written as PNGs of the asked size whose pixels show the data
-//! (the lid of the cavity is bright, its bottom dark; one line colour per particle), the
-//! reader returns the particle histories, and bad input exits 2 naming the argument.
+//! `grainflow plot` (src/plot.rs): contour slices of a small flow run, time series and side
+//! views of small particle runs are written as PNGs of the asked size whose pixels show
+//! the data (the lid of the cavity is bright, its bottom dark; one line colour per
+//! particle; spheres at their projected places, nearer over farther, at equal scale in
+//! both directions), the reader returns the particle histories, and bad input exits 2
+//! naming the argument.
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -9,12 +11,55 @@ use std::sync::OnceLock;
 
 use common::*;
 
-/// Two runs shared by all tests: the seed's lid-driven box at level 1 (4 x 4 x 16 cells,
-/// 3 fluid steps) and two free-falling spheres (11 frames).
+/// Runs shared by all tests: the seed's lid-driven box at level 1 (4 x 4 x 16 cells,
+/// 3 fluid steps), two free-falling spheres (11 frames), four spheres drifting without
+/// gravity (6 frames), and those four spheres with the cavity's fluid files (its box).
 struct Runs {
     fluid: PathBuf,
     particles: PathBuf,
+    four: PathBuf,
+    four_in_box: PathBuf,
 }
+
+/// Four spheres inside the cavity's box 0.5 x 0.5 x 2, no gravity, no contacts; at step 0
+/// the speeds are 0, 1, 0.5 and 0. Seen along y, sphere 2 (y = 0.1, near) covers part
+/// of sphere 3 (y = 0.4, far).
+const FOUR_SPHERES: &str = r#"
+[simulation]
+dt = 1.0e-5
+end_time = 1.0e-3
+gravity = [0.0, 0.0, 0.0]
+output_interval = 2.0e-4
+
+[[materials]]
+name = "glass"
+density = 2500.0
+youngs_modulus = 1.0e7
+poisson_ratio = 0.3
+restitution = 0.5
+
+[[spheres]]
+material = "glass"
+radius = 0.05
+position = [0.1, 0.25, 0.1]
+
+[[spheres]]
+material = "glass"
+radius = 0.05
+position = [0.4, 0.25, 0.1]
+velocity = [0.0, 0.0, 1.0]
+
+[[spheres]]
+material = "glass"
+radius = 0.08
+position = [0.3, 0.1, 1.5]
+velocity = [0.5, 0.0, 0.0]
+
+[[spheres]]
+material = "glass"
+radius = 0.12
+position = [0.25, 0.4, 1.5]
+"#;
 
 const TWO_SPHERES: &str = r#"
 [simulation]
@@ -73,7 +118,33 @@ fn runs() -> &'static Runs {
             code, 0,
             "particle run\nstdout:\n{stdout}\nstderr:\n{stderr}"
         );
-        Runs { fluid, particles }
+        let scene = write_scene(&root, "four-spheres.toml", FOUR_SPHERES);
+        let four = root.join("four-spheres");
+        let (code, stdout, stderr) = run_cli(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            four.to_str().unwrap(),
+        ]);
+        assert_eq!(
+            code, 0,
+            "four spheres\nstdout:\n{stdout}\nstderr:\n{stderr}"
+        );
+        let four_in_box = root.join("four-in-box");
+        std::fs::create_dir_all(&four_in_box).expect("test directory");
+        for (dir, name) in [
+            (&four, "particles.h5"),
+            (&fluid, "fluid.h5"),
+            (&fluid, "fluid.xdmf"),
+        ] {
+            std::fs::copy(dir.join(name), four_in_box.join(name)).expect("copy run file");
+        }
+        Runs {
+            fluid,
+            particles,
+            four,
+            four_in_box,
+        }
     })
 }
 
@@ -87,19 +158,28 @@ fn decode(path: &Path) -> image::RgbImage {
         .to_rgb8()
 }
 
-/// "plot area: x A..B, y C..D px; ..." printed by `plot contour`.
+/// "plot area: x A..B, y C..D px; ..." printed by `plot contour` (the first line).
 fn plot_area(stdout: &str) -> (u32, u32, u32, u32) {
-    let line = stdout
+    *plot_areas(stdout)
+        .first()
+        .unwrap_or_else(|| panic!("no plot area line in\n{stdout}"))
+}
+
+/// Every "plot area: x A..B, y C..D px; ..." line (one per panel of `plot particles`).
+fn plot_areas(stdout: &str) -> Vec<(u32, u32, u32, u32)> {
+    stdout
         .lines()
-        .find(|l| l.starts_with("plot area:"))
-        .unwrap_or_else(|| panic!("no plot area line in\n{stdout}"));
-    let nums: Vec<u32> = line
-        .split(|c: char| !c.is_ascii_digit())
-        .filter(|w| !w.is_empty())
-        .take(4)
-        .map(|w| w.parse().unwrap())
-        .collect();
-    (nums[0], nums[1], nums[2], nums[3])
+        .filter(|l| l.starts_with("plot area:"))
+        .map(|line| {
+            let nums: Vec<u32> = line
+                .split(|c: char| !c.is_ascii_digit())
+                .filter(|w| !w.is_empty())
+                .take(4)
+                .map(|w| w.parse().unwrap())
+                .collect();
+            (nums[0], nums[1], nums[2], nums[3])
+        })
+        .collect()
 }
 
 fn distance(a: image::Rgb<u8>, b: image::Rgb<u8>) -> f64 {
@@ -361,4 +441,230 @@ fn missing_font_exits_2_naming_the_path() {
         "{stderr}"
     );
     assert!(!r.particles.join("nofont.png").exists());
+}
+
+/// The colours of src/plot.rs: viridis at 0, 0.5 and 1, the colours of ids 1 and 2, and
+/// the background of a side view.
+const VIRIDIS_0: [u8; 3] = [0x44, 0x01, 0x54];
+const VIRIDIS_HALF: [u8; 3] = [0x21, 0x91, 0x8c];
+const VIRIDIS_1: [u8; 3] = [0xfd, 0xe7, 0x25];
+const ID_1: [u8; 3] = [213, 94, 0];
+const ID_2: [u8; 3] = [0, 158, 115];
+const BACKGROUND: [u8; 3] = [240, 244, 250];
+
+/// Maps the box `lower..upper` (horizontal, vertical) onto a plot area.
+struct Frame {
+    area: (u32, u32, u32, u32),
+    lower: [f64; 2],
+    upper: [f64; 2],
+}
+
+impl Frame {
+    fn pixel(&self, u: f64, v: f64) -> (u32, u32) {
+        let (x0, x1, y0, y1) = self.area;
+        let fx = (u - self.lower[0]) / (self.upper[0] - self.lower[0]);
+        let fy = (self.upper[1] - v) / (self.upper[1] - self.lower[1]);
+        (
+            (x0 as f64 + fx * (x1 - x0) as f64) as u32,
+            (y0 as f64 + fy * (y1 - y0) as f64) as u32,
+        )
+    }
+}
+
+fn assert_colour(img: &image::RgbImage, (x, y): (u32, u32), want: [u8; 3], what: &str) {
+    let got = *img.get_pixel(x, y);
+    assert!(
+        distance(got, image::Rgb(want)) < 3.0,
+        "{what} at pixel ({x}, {y}): {got:?}, expected {want:?}"
+    );
+}
+
+fn particles_plot<'a>(dir: &'a str, extra: &[&'a str]) -> (String, String) {
+    let mut args = vec!["plot", "particles", dir];
+    args.extend_from_slice(extra);
+    let (code, stdout, stderr) = run_cli(&args);
+    assert_eq!(code, 0, "{args:?}\nstdout:\n{stdout}\nstderr:\n{stderr}");
+    (stdout, stderr)
+}
+
+#[test]
+fn particles_side_view_draws_spheres_in_place_and_depth_order() {
+    let r = runs();
+    let out = r.four.join("side.png");
+    let (stdout, _) = particles_plot(
+        s(&r.four),
+        &["--step", "0", "--size", "700x900", "--out", s(&out)],
+    );
+    let img = decode(&out);
+    assert_eq!(img.dimensions(), (700, 900));
+    // Without fluid files the box is the spheres' extent: x 0.05..0.45, z 0.05..1.62;
+    // one length unit has the same number of pixels in both directions.
+    let area = plot_area(&stdout);
+    let (x0, x1, y0, y1) = area;
+    let (w, h) = ((x1 - x0) as f64, (y1 - y0) as f64);
+    assert!(w > 100.0, "plot area {area:?}");
+    let expected_h = w * (1.62 - 0.05) / (0.45 - 0.05);
+    assert!(
+        (h - expected_h).abs() <= 2.0,
+        "plot area {area:?}: height {h}, expected {expected_h}"
+    );
+    assert!(stdout.contains("|v| (m/s) from 0 to 1"), "{stdout}");
+    let view = Frame {
+        area,
+        lower: [0.05, 0.05],
+        upper: [0.45, 1.62],
+    };
+    assert_colour(&img, view.pixel(0.1, 0.1), VIRIDIS_0, "sphere 0 (at rest)");
+    assert_colour(&img, view.pixel(0.4, 0.1), VIRIDIS_1, "sphere 1 (|v| = 1)");
+    // Sphere 2 (near, |v| = 0.5) over sphere 3 (far, at rest) where they overlap; sphere
+    // 3 beside it; nothing between the spheres.
+    assert_colour(&img, view.pixel(0.3, 1.5), VIRIDIS_HALF, "near sphere 2");
+    assert_colour(
+        &img,
+        view.pixel(0.16, 1.5),
+        VIRIDIS_0,
+        "far sphere 3 beside 2",
+    );
+    assert_colour(
+        &img,
+        view.pixel(0.25, 0.8),
+        BACKGROUND,
+        "between the spheres",
+    );
+    // Seen along x (from +x) the spheres are at (y, z); coloured by id. Spheres 0 and 1
+    // have the same (y, z): sphere 1 (x = 0.4) is the nearer and covers sphere 0.
+    let out_x = r.four.join("side-x.png");
+    let (stdout, _) = particles_plot(
+        s(&r.four),
+        &[
+            "--step",
+            "0",
+            "--view",
+            "x",
+            "--color",
+            "id",
+            "--out",
+            s(&out_x),
+        ],
+    );
+    let img = decode(&out_x);
+    // y 0.02..0.52 (sphere 2 reaches 0.1 - 0.08, sphere 3 0.4 + 0.12), z 0.05..1.62.
+    let view = Frame {
+        area: plot_area(&stdout),
+        lower: [0.02, 0.05],
+        upper: [0.52, 1.62],
+    };
+    assert_colour(&img, view.pixel(0.25, 0.1), ID_1, "sphere 1 over sphere 0");
+    assert_colour(&img, view.pixel(0.1, 1.5), ID_2, "sphere 2 coloured by id");
+    assert_colour(&img, view.pixel(0.1, 0.8), BACKGROUND, "beside the spheres");
+}
+
+#[test]
+fn particles_axes_span_the_fluid_box_at_equal_scale() {
+    let r = runs();
+    let (stdout, _) = particles_plot(s(&r.four_in_box), &["--time", "0", "--color", "z"]);
+    // The default name and size; the box of fluid.xdmf, 0.5 x 2 (x, z).
+    let out = r.four_in_box.join("particles_y_00000000.png");
+    assert!(stdout.contains(s(&out)), "{stdout}");
+    assert!(stdout.contains("z (m) from 0.1 to 1.5"), "{stdout}");
+    let img = decode(&out);
+    assert_eq!(img.dimensions(), (900, 700));
+    let area = plot_area(&stdout);
+    let (x0, x1, y0, y1) = area;
+    let (w, h) = ((x1 - x0) as f64, (y1 - y0) as f64);
+    assert!(
+        h > 300.0 && (h - 4.0 * w).abs() <= 2.0,
+        "plot area {area:?}"
+    );
+    let view = Frame {
+        area,
+        lower: [0.0, 0.0],
+        upper: [0.5, 2.0],
+    };
+    // Colour by height: the spheres at z = 0.1 are the low end, those at 1.5 the top.
+    assert_colour(&img, view.pixel(0.1, 0.1), VIRIDIS_0, "sphere 0 at z = 0.1");
+    assert_colour(&img, view.pixel(0.3, 1.5), VIRIDIS_1, "sphere 2 at z = 1.5");
+    assert_colour(&img, view.pixel(0.25, 1.9), BACKGROUND, "top of the box");
+}
+
+#[test]
+fn particles_series_has_one_panel_per_frame() {
+    let r = runs();
+    let (stdout, _) = particles_plot(s(&r.four), &["--frames", "3"]);
+    let out = r.four.join("particles_y_series.png");
+    assert!(stdout.contains(s(&out)), "{stdout}");
+    let areas = plot_areas(&stdout);
+    assert_eq!(areas.len(), 3, "{stdout}");
+    // First, middle and last of the 6 frames (steps 0, 20, ..., 100).
+    for step in ["(step 0)", "(step 60)", "(step 100)"] {
+        assert!(stdout.contains(step), "{step} not in\n{stdout}");
+    }
+    let img = decode(&out);
+    let (w, h) = img.dimensions();
+    assert!(w > 900 && h == 700, "{w}x{h}");
+    for pair in areas.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        assert!(b.0 > a.1, "panels overlap: {a:?} {b:?}");
+        assert_eq!((a.1 - a.0, a.2, a.3), (b.1 - b.0, b.2, b.3), "panel sizes");
+    }
+    // Sphere 1 moves up at 1 m/s (0.001 in the run): its start is inside it in every
+    // panel; one shared colour scale from 0 to 1.
+    assert!(stdout.contains("|v| (m/s) from 0 to 1"), "{stdout}");
+    let (lower, upper) = ([0.05, 0.05], [0.45, 1.621]);
+    for area in &areas {
+        let view = Frame {
+            area: *area,
+            lower,
+            upper,
+        };
+        assert_colour(&img, view.pixel(0.4, 0.1), VIRIDIS_1, "sphere 1");
+        assert_colour(
+            &img,
+            view.pixel(0.25, 0.8),
+            BACKGROUND,
+            "between the spheres",
+        );
+    }
+    // --times: one panel per time.
+    let (stdout, _) = particles_plot(
+        s(&r.four),
+        &["--times", "0,0.0005", "--out", s(&r.four.join("two.png"))],
+    );
+    assert_eq!(plot_areas(&stdout).len(), 2, "{stdout}");
+}
+
+#[test]
+fn particles_bad_input_exits_2_naming_the_argument() {
+    let r = runs();
+    let four = s(&r.four);
+    let missing_dir = r.four.with_file_name("no-such-run");
+    let missing = s(&missing_dir);
+    let empty_dir = r.four.with_file_name("empty-run");
+    std::fs::create_dir_all(&empty_dir).expect("test directory");
+    let p = |extra: &[&'static str]| -> Vec<String> {
+        ["plot", "particles", four]
+            .iter()
+            .chain(extra)
+            .map(|a| a.to_string())
+            .collect()
+    };
+    let bad = |args: Vec<String>, names: &[&str]| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        assert_bad(&args, names);
+    };
+    assert_bad(&["plot", "particles", missing], &["RUN_DIR", missing]);
+    assert_bad(
+        &["plot", "particles", s(&empty_dir)],
+        &["RUN_DIR", "particles.h5"],
+    );
+    bad(p(&["--view", "w"]), &["--view", "w"]);
+    bad(p(&["--color", "temperature"]), &["--color", "temperature"]);
+    bad(p(&["--time", "5"]), &["--time", "outside the run"]);
+    bad(p(&["--time", "-1"]), &["--time", "outside the run"]);
+    bad(p(&["--times", "0,7"]), &["--times 7", "outside the run"]);
+    bad(p(&["--frames", "0"]), &["--frames 0"]);
+    bad(p(&["--frames", "7"]), &["--frames 7", "1 to 6"]);
+    bad(p(&["--step", "3"]), &["--step", "0, 20, 40"]);
+    bad(p(&["--step", "0", "--time", "0"]), &["--step", "--time"]);
+    bad(p(&["--size", "50x50"]), &["--size"]);
 }
