@@ -31,7 +31,7 @@ use crate::grid::{BoundaryKind, Grid, Layout};
 use rayon::prelude::*;
 
 /// Chunk length of the deterministic reductions.
-const CHUNK: usize = 4096;
+pub(crate) const CHUNK: usize = 4096;
 
 /// `sum_i a_i b_i`, summed in fixed chunks (independent of the thread count).
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -79,6 +79,38 @@ pub fn remove_mean(x: &mut [f64]) {
 #[inline]
 pub(crate) fn others(a: usize) -> [usize; 2] {
     [(a + 1) % 3, (a + 2) % 3]
+}
+
+/// The value at one face of `M` vectors that share an operator (the velocity components of
+/// a momentum solve): `f64` for one vector, `[f64; M]` for `M` vectors stored interleaved,
+/// so that one pass over the operator's tables serves all of them.
+pub trait Lanes<const M: usize>: Copy + Send + Sync {
+    /// The `M` values.
+    fn lanes(self) -> [f64; M];
+    /// From `M` values.
+    fn from_lanes(v: [f64; M]) -> Self;
+}
+
+impl Lanes<1> for f64 {
+    #[inline(always)]
+    fn lanes(self) -> [f64; 1] {
+        [self]
+    }
+    #[inline(always)]
+    fn from_lanes(v: [f64; 1]) -> Self {
+        v[0]
+    }
+}
+
+impl<const M: usize> Lanes<M> for [f64; M] {
+    #[inline(always)]
+    fn lanes(self) -> [f64; M] {
+        self
+    }
+    #[inline(always)]
+    fn from_lanes(v: [f64; M]) -> Self {
+        v
+    }
 }
 
 /// The scalar Q1~ operator `alpha M + nu K (+ N(w))` on one level (matrix-free), with the
@@ -336,11 +368,27 @@ impl FaceOperator {
         self.conv.is_some()
     }
 
-    /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`.
+    /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`,
+    /// for each of the `M` vectors of `x`.
     #[inline]
-    pub(crate) fn row(&self, a: usize, f: [usize; 3], x: &[f64]) -> (f64, f64) {
+    fn row<const M: usize, T: Lanes<M>>(
+        &self,
+        a: usize,
+        f: [usize; 3],
+        x: &[T],
+    ) -> (f64, [f64; M]) {
         let conv = self.conv.as_ref();
-        self.row_with(a, f, x, |c| conv.map(|conv| &conv.cells[c]))
+        let mut diag = 0.0;
+        let mut off = [0.0; M];
+        for (m, o) in off.iter_mut().enumerate() {
+            (diag, *o) = self.row_with(
+                a,
+                f,
+                |i| x[i].lanes()[m],
+                |c| conv.map(|conv| &conv.cells[c]),
+            );
+        }
+        (diag, off)
     }
 
     /// Row `f` of family `a` of `A x` for the three vectors `x`, with the convection of
@@ -365,7 +413,7 @@ impl FaceOperator {
         };
         let fi = lay.face(a, f);
         x.map(|xc| {
-            let (diag, off) = self.row_with(a, f, xc, record);
+            let (diag, off) = self.row_with(a, f, |i| xc[i], record);
             diag * xc[fi] + off
         })
     }
@@ -415,7 +463,7 @@ impl FaceOperator {
         &self,
         a: usize,
         f: [usize; 3],
-        x: &[f64],
+        x: impl Fn(usize) -> f64,
         conv: impl Fn(usize) -> Option<R>,
     ) -> (f64, f64) {
         let lay = &self.layout;
@@ -427,12 +475,12 @@ impl FaceOperator {
             // the face is the upper face of the minus cell (side 0), the lower face of the
             // plus cell (side 1); the opposite face is the other one
             let opp = if side == 0 { c } else { lay.upper(a, c) };
-            let x_opp = x[lay.face(a, opp)];
+            let x_opp = x(lay.face(a, opp));
             off += self.opp[a] * x_opp;
             let [b0, b1] = others(a);
             let xb = [
-                [x[lay.face(b0, c)], x[lay.face(b0, lay.upper(b0, c))]],
-                [x[lay.face(b1, c)], x[lay.face(b1, lay.upper(b1, c))]],
+                [x(lay.face(b0, c)), x(lay.face(b0, lay.upper(b0, c)))],
+                [x(lay.face(b1, c)), x(lay.face(b1, lay.upper(b1, c)))],
             ];
             off +=
                 self.adj[a][b0] * (xb[0][0] + xb[0][1]) + self.adj[a][b1] * (xb[1][0] + xb[1][1]);
@@ -457,19 +505,20 @@ impl FaceOperator {
 
     /// For the faces of row `(j, k)` of family `a` (face coordinates `[i, j, k]`) with
     /// `i % 2 == p` (all `i` if `parity` is `None`): `g(i, diag, off)` with the diagonal
-    /// entry and `sum_{j != i} A_ij x_j` of the row, exactly as [`FaceOperator::row`]
-    /// computes them (same operations in the same order). The faces whose neighbours are
-    /// shift-invariant along `i` (no box side, no periodic wrap) run through one
-    /// specialised loop with precomputed index offsets, the others one by one.
+    /// entry and `sum_{j != i} A_ij x_j` of the row for each of the `M` vectors of `x`,
+    /// exactly as [`FaceOperator::row`] computes them (same operations in the same order,
+    /// per vector as for one). The faces whose neighbours are shift-invariant along `i`
+    /// (no box side, no periodic wrap) run through one specialised loop with precomputed
+    /// index offsets, the others one by one.
     #[inline]
-    pub(crate) fn for_row(
+    pub(crate) fn for_row<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
         j: usize,
         k: usize,
-        x: &[f64],
+        x: &[T],
         parity: Option<usize>,
-        mut g: impl FnMut(usize, f64, f64),
+        mut g: impl FnMut(usize, f64, [f64; M]),
     ) {
         let lay = &self.layout;
         let len = lay.fdim[a][0];
@@ -504,26 +553,30 @@ impl FaceOperator {
     /// `i0 = start`, `end = start + 1` is always valid).
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn segment_at(
+    fn segment_at<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
         j: usize,
         k: usize,
-        x: &[f64],
+        x: &[T],
         i0: usize,
         start: usize,
         end: usize,
         step: usize,
-        g: &mut impl FnMut(usize, f64, f64),
+        g: &mut impl FnMut(usize, f64, [f64; M]),
     ) {
         let (sides, count) = self.row_sides(a, [i0, j, k]);
         let fb = self.row_start(a, j, k) + i0;
         let conv = self.conv.is_some();
         match (count, conv) {
-            (1, false) => self.segment::<1, false>([sides[0]], a, x, fb, i0, start, end, step, g),
-            (2, false) => self.segment::<2, false>(sides, a, x, fb, i0, start, end, step, g),
-            (1, true) => self.segment::<1, true>([sides[0]], a, x, fb, i0, start, end, step, g),
-            (2, true) => self.segment::<2, true>(sides, a, x, fb, i0, start, end, step, g),
+            (1, false) => {
+                self.segment::<1, false, M, T>([sides[0]], a, x, fb, i0, start, end, step, g)
+            }
+            (2, false) => self.segment::<2, false, M, T>(sides, a, x, fb, i0, start, end, step, g),
+            (1, true) => {
+                self.segment::<1, true, M, T>([sides[0]], a, x, fb, i0, start, end, step, g)
+            }
+            (2, true) => self.segment::<2, true, M, T>(sides, a, x, fb, i0, start, end, step, g),
             _ => {
                 for i in (start..end).step_by(step) {
                     let (d, o) = self.row(a, [i, j, k], x);
@@ -563,17 +616,17 @@ impl FaceOperator {
     /// [`FaceOperator::row`] (with convection the diagonal comes from the face table).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn segment<const N: usize, const CONV: bool>(
+    fn segment<const N: usize, const CONV: bool, const M: usize, T: Lanes<M>>(
         &self,
         sides: [RowSide; N],
         a: usize,
-        x: &[f64],
+        x: &[T],
         fbase: usize,
         i0: usize,
         start: usize,
         end: usize,
         step: usize,
-        g: &mut impl FnMut(usize, f64, f64),
+        g: &mut impl FnMut(usize, f64, [f64; M]),
     ) {
         let same = self.same[a];
         let opp_c = self.opp[a];
@@ -582,7 +635,7 @@ impl FaceOperator {
         for i in (start..end).step_by(step) {
             let t = i - i0;
             let mut diag = 0.0;
-            let mut off = 0.0;
+            let mut off = [0.0; M];
             let fc: &[f64; 17] = if CONV {
                 &self.faces[fbase + t]
             } else {
@@ -592,21 +645,28 @@ impl FaceOperator {
                 if !CONV {
                     diag += same;
                 }
-                let x_opp = x[s.opp + t];
-                off += opp_c * x_opp;
+                let x_opp = x[s.opp + t].lanes();
                 let xb = [
-                    [x[s.xb[0] + t], x[s.xb[1] + t]],
-                    [x[s.xb[2] + t], x[s.xb[3] + t]],
+                    [x[s.xb[0] + t].lanes(), x[s.xb[1] + t].lanes()],
+                    [x[s.xb[2] + t].lanes(), x[s.xb[3] + t].lanes()],
                 ];
-                off += adj0 * (xb[0][0] + xb[0][1]) + adj1 * (xb[1][0] + xb[1][1]);
+                for m in 0..M {
+                    off[m] += opp_c * x_opp[m];
+                    off[m] +=
+                        adj0 * (xb[0][0][m] + xb[0][1][m]) + adj1 * (xb[1][0][m] + xb[1][1][m]);
+                }
                 if CONV {
-                    let rest = x_opp + xb[0][0] + xb[0][1] + xb[1][0] + xb[1][1];
+                    let rest: [f64; M] = std::array::from_fn(|m| {
+                        x_opp[m] + xb[0][0][m] + xb[0][1][m] + xb[1][0][m] + xb[1][1][m]
+                    });
                     for q in 0..2 {
                         for sb in 0..2 {
-                            let vj = xb[q][sb];
                             let d = fc[1 + 8 * slot + 2 * q + sb];
                             let e = fc[5 + 8 * slot + 2 * q + sb];
-                            off += d * (2.0 / 3.0 * vj - rest / 18.0) - e * vj;
+                            for m in 0..M {
+                                let vj = xb[q][sb][m];
+                                off[m] += d * (2.0 / 3.0 * vj - rest[m] / 18.0) - e * vj;
+                            }
                         }
                     }
                 }
@@ -620,9 +680,9 @@ impl FaceOperator {
 
     /// Calls `g(j, k, row)` for every row (faces `[0.., j, k]`) of family `a` of `out`,
     /// rows in parallel (each output row written by one task).
-    pub(crate) fn par_rows<F>(&self, a: usize, out: &mut [f64], g: F)
+    pub(crate) fn par_rows<T: Send, F>(&self, a: usize, out: &mut [T], g: F)
     where
-        F: Fn(usize, usize, &mut [f64]) + Sync,
+        F: Fn(usize, usize, &mut [T]) + Sync,
     {
         let lay = &self.layout;
         let d = lay.fdim[a];
@@ -639,29 +699,37 @@ impl FaceOperator {
         self.layout.face(a, [0, j, k])
     }
 
-    /// `y = A x`.
-    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+    /// `y = A x` (for each of the `M` vectors of `x`, see [`Lanes`]).
+    pub fn apply<const M: usize, T: Lanes<M>>(&self, x: &[T], y: &mut [T]) {
         for a in 0..3 {
             self.par_rows(a, y, |j, k, row| {
                 let base = self.row_start(a, j, k);
                 self.for_row(a, j, k, x, None, |i, d, off| {
-                    row[i] = d * x[base + i] + off;
+                    let xi = x[base + i].lanes();
+                    row[i] = T::from_lanes(std::array::from_fn(|m| d * xi[m] + off[m]));
                 });
             });
         }
     }
 
     /// `r = b - A x` on the free faces, `0` on the faces with `mask` set.
-    pub fn residual(&self, x: &[f64], b: &[f64], mask: &[bool], r: &mut [f64]) {
+    pub fn residual<const M: usize, T: Lanes<M>>(
+        &self,
+        x: &[T],
+        b: &[T],
+        mask: &[bool],
+        r: &mut [T],
+    ) {
         for a in 0..3 {
             self.par_rows(a, r, |j, k, row| {
                 let base = self.row_start(a, j, k);
                 self.for_row(a, j, k, x, None, |i, d, off| {
                     let fi = base + i;
                     row[i] = if mask[fi] {
-                        0.0
+                        T::from_lanes([0.0; M])
                     } else {
-                        b[fi] - d * x[fi] - off
+                        let (bi, xi) = (b[fi].lanes(), x[fi].lanes());
+                        T::from_lanes(std::array::from_fn(|m| bi[m] - d * xi[m] - off[m]))
                     };
                 });
             });
@@ -672,14 +740,14 @@ impl FaceOperator {
     /// `parity`): the new values `(b_i - off_i) / d_i` of the free faces of the colour are
     /// computed into `tmp` from the old `x` and then copied into `x`. Faces of one colour
     /// share no cell (their rows do not couple), so this is exactly the in-place sweep.
-    pub(crate) fn gauss_seidel_colour(
+    pub(crate) fn gauss_seidel_colour<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
         parity: usize,
-        x: &mut [f64],
-        b: &[f64],
+        x: &mut [T],
+        b: &[T],
         mask: &[bool],
-        tmp: &mut [f64],
+        tmp: &mut [T],
     ) {
         // the rows of the colour, and the parity of `i` inside them (`None`: all faces)
         let sel = |j: usize, k: usize| match a {
@@ -689,13 +757,18 @@ impl FaceOperator {
             _ => None,
         };
         {
-            let xs: &[f64] = x;
+            let xs: &[T] = x;
             self.par_rows(a, tmp, |j, k, row| {
                 let Some(sel) = sel(j, k) else { return };
                 let base = self.row_start(a, j, k);
                 self.for_row(a, j, k, xs, sel, |i, d, off| {
                     let fi = base + i;
-                    row[i] = if mask[fi] { xs[fi] } else { (b[fi] - off) / d };
+                    row[i] = if mask[fi] {
+                        xs[fi]
+                    } else {
+                        let bi = b[fi].lanes();
+                        T::from_lanes(std::array::from_fn(|m| (bi[m] - off[m]) / d))
+                    };
                 });
             });
         }
