@@ -26,17 +26,17 @@ const RUNS: [(TimeScheme, f64, f64); 12] = {
     use TimeScheme::{BackwardEuler as Be, CrankNicolson as Cn, FractionalStepTheta as Fs};
     [
         (Fs, 1e-6, 1e-8),
-        (Fs, 1e-4, 1e-6),
         (Fs, 1e-3, 1e-5),
         (Fs, 1e-2, 1e-4),
         (Cn, 1e-6, 1e-8),
-        (Cn, 1e-4, 1e-6),
         (Cn, 1e-3, 1e-5),
+        (Cn, 1e-2, 1e-5),
         (Cn, 1e-2, 1e-4),
+        (Cn, 1e-1, 1e-4),
         (Be, 1e-6, 1e-8),
-        (Be, 1e-4, 1e-6),
         (Be, 1e-3, 1e-5),
         (Be, 1e-2, 1e-4),
+        (Be, 1e-1, 1e-4),
     ]
 };
 

@@ -186,13 +186,15 @@ pub struct NsConfig {
 
 impl NsConfig {
     /// Defaults: fractional-step theta, one backward-Euler start-up step, tolerances
-    /// 1e-6 (momentum) and 1e-8 (pressure), at most 50 cycles. The momentum tolerance:
-    /// on the seed's channel (level 3, dt = 0.01) one V-cycle already reduces the
-    /// residual by ~5e-8, so 1e-6 takes 1 cycle per solve instead of 2 at 1e-8 (step
-    /// 0.30 s instead of 0.45-0.50 s, measured with `channel_step_timings`) and changes
-    /// the velocity by at most 8e-9 (velocities ~1) after 4 steps. The pressure keeps
-    /// 1e-8: the divergence after a step is proportional to it (1.4e-10 at 1e-8, 1.8e-7
-    /// at 1e-5, for 24 instead of 15 V-cycles per step, ~0.02 s of the step).
+    /// 1e-3 (momentum) and 1e-5 (pressure), at most 50 cycles. The tolerances
+    /// (docs/fluid-benchmarks.md, "The cost of a fluid step", `benches/step_error.rs`): on
+    /// the seed's channel at U dt/h = 1 (level 3, to t = 2) they move the velocity by at
+    /// most 1.8e-5 of the inflow peak from the solution with both at 1e-10, against time
+    /// discretisation errors of 3e-3 (Crank-Nicolson) to 3e-2 (backward Euler); the
+    /// settling sphere's velocity moves by 2e-6 of itself. They take half the momentum
+    /// and two thirds of the pressure cycles of 1e-6 / 1e-8 at U dt/h ~ 1; the largest
+    /// cell divergence after a step is proportional to the pressure tolerance (5e-5
+    /// against 4e-8 there, per cell volume, velocities ~1).
     pub fn new(nu: f64, dt: f64) -> Self {
         NsConfig {
             nu,
@@ -200,8 +202,8 @@ impl NsConfig {
             scheme: TimeScheme::FractionalStepTheta,
             viscous: ViscousForm::Laplacian,
             startup_steps: 1,
-            momentum_rtol: 1e-6,
-            pressure_rtol: 1e-8,
+            momentum_rtol: 1e-3,
+            pressure_rtol: 1e-5,
             max_cycles: 50,
             upwind: 1.0,
             solve_upwind: None,
@@ -565,6 +567,7 @@ impl NavierStokes {
             }
         }
         // the convecting velocity u*
+        let extrapolated = extrapolate && self.prev.is_some();
         for (c, us) in sc.ustar.iter_mut().enumerate() {
             us.resize(nf, 0.0);
             match (&self.prev, extrapolate) {
@@ -630,6 +633,19 @@ impl NavierStokes {
             .set_operator_split(1.0 / wi, stiff, nu / solve_upwind);
         self.mg
             .set_convection([&sc.ustar[0], &sc.ustar[1], &sc.ustar[2]]);
+        // initial guess: the extrapolated u* on the free faces (a second-order prediction
+        // of u~, so the relative tolerance leaves a smaller error than from u_old)
+        if extrapolated {
+            for (uc, us) in self.u.iter_mut().zip(&sc.ustar) {
+                uc.par_iter_mut()
+                    .zip(us.par_iter().zip(self.mask.par_iter()))
+                    .for_each(|(u, (w, &m))| {
+                        if !m {
+                            *u = *w;
+                        }
+                    });
+            }
+        }
         let [u0, u1, u2] = &mut self.u;
         let [r0, r1, r2] = &sc.rhs;
         let reps = self.mg.solve_all(
@@ -665,9 +681,11 @@ impl NavierStokes {
             .pmg
             .solve(q, b, self.cfg.pressure_rtol, self.cfg.max_cycles);
         pre.add(&rep);
-        for c in bq.iter_mut() {
-            c.clear();
+        // B q has component a on the a-faces only: those ranges are zeroed, filled and used
+        let lay = g.layout();
+        for (a, c) in bq.iter_mut().enumerate() {
             c.resize(nf, 0.0);
+            c[lay.off[a]..lay.off[a + 1]].fill(0.0);
         }
         {
             let [b0, b1, b2] = bq;
@@ -680,10 +698,16 @@ impl NavierStokes {
         } else {
             &self.mask
         };
-        for (uc, bc) in self.u.iter_mut().zip(bq.iter()) {
-            uc.par_iter_mut()
-                .zip(bc.par_iter())
-                .zip(self.ml.par_iter().zip(fixed_mask.par_iter()))
+        for (a, (uc, bc)) in self.u.iter_mut().zip(bq.iter()).enumerate() {
+            let range = lay.off[a]..lay.off[a + 1];
+            uc[range.clone()]
+                .par_iter_mut()
+                .zip(bc[range.clone()].par_iter())
+                .zip(
+                    self.ml[range.clone()]
+                        .par_iter()
+                        .zip(fixed_mask[range].par_iter()),
+                )
                 .for_each(|((u, b), (m, &fixed))| {
                     if !fixed {
                         *u -= ks * b / m;

@@ -130,13 +130,38 @@ pub struct FaceOperator {
     /// Linearised convection, if any.
     conv: Option<Convection>,
     /// With convection, per face: the diagonal entry, then per adjacent cell (in the order
-    /// minus, plus of the existing cells) the four fluxes `d` and the four weights `e` of
-    /// the pairs `(b0 lower, b0 upper, b1 lower, b1 upper)`, signed as seen from the
-    /// face (see [`FaceOperator::fill_face_table`]).
-    faces: Vec<[f64; 17]>,
+    /// minus, plus of the existing cells) the five coefficients of [`side_coefficients`]
+    /// (see [`FaceOperator::fill_face_table`]).
+    faces: Vec<[f64; FACE_RECORD]>,
     /// Storage of a convection dropped by [`FaceOperator::recycle`], for the next
     /// [`FaceOperator::with_convection`]; never read as data.
     spare_cells: Vec<[f64; 24]>,
+}
+
+/// Length of a face's record in the convection table: the diagonal and five coefficients
+/// per adjacent cell.
+const FACE_RECORD: usize = 11;
+
+/// The off-diagonal coefficients that one adjacent cell gives the row of a face with
+/// convection, `(c_opp, c_0, c_1, c_2, c_3)` of the opposite face and the four faces of the
+/// other families (`b0` lower/upper, `b1` lower/upper): with the element entries `opp`,
+/// `adj = (A_ab0, A_ab1)` and the pairs' fluxes `d_j` and upwind weights `e_j` (see
+/// [`Convection`]), the row's part
+/// `opp x_opp + sum_j adj x_j + sum_j d_j (2/3 x_j - rest/18) - e_j x_j` with
+/// `rest = x_opp + sum_j x_j`, collected per unknown: `c_opp = opp - D/18` and
+/// `c_j = adj + 2/3 d_j - e_j - D/18`, `D = sum_j d_j`.
+#[inline]
+fn side_coefficients(opp: f64, adj: [f64; 2], d: [f64; 4], e: [f64; 4]) -> [f64; 5] {
+    let r = (d[0] + d[1] + d[2] + d[3]) / 18.0;
+    let c = |j: usize| adj[j / 2] + 2.0 / 3.0 * d[j] - e[j] - r;
+    [opp - r, c(0), c(1), c(2), c(3)]
+}
+
+/// `sum c_i x_i` of a face row's part from one cell ([`side_coefficients`]), in the one
+/// order both the table and the generic row use.
+#[inline(always)]
+fn side_sum(c: &[f64], x_opp: f64, xb: [[f64; 2]; 2]) -> f64 {
+    c[0] * x_opp + c[1] * xb[0][0] + c[2] * xb[0][1] + c[3] * xb[1][0] + c[4] * xb[1][1]
 }
 
 /// Index of the unordered family pair `{a, b}` (`a != b`): `{x,y}` 0, `{x,z}` 1, `{y,z}` 2.
@@ -326,41 +351,54 @@ impl FaceOperator {
         self.spare_cells = old.conv.map_or(old.spare_cells, |c| c.cells);
     }
 
-    /// The per-face convection table (see the field `faces`): the diagonal entry computed
-    /// with exactly the operations of [`FaceOperator::row`] and the signed `d`, `e` of
-    /// the face's pairs, so that the row loops read one contiguous record per face.
-    fn fill_face_table(&self, conv: &Convection, out: &mut Vec<[f64; 17]>) {
+    /// The per-face convection table (see the field `faces`): the diagonal entry and the
+    /// coefficients of [`side_coefficients`], computed with exactly the operations of
+    /// [`FaceOperator::row`], so that the row loops read one contiguous record per face.
+    fn fill_face_table(&self, conv: &Convection, out: &mut Vec<[f64; FACE_RECORD]>) {
         let lay = &self.layout;
-        out.resize(lay.num_faces(), [0.0; 17]);
+        out.resize(lay.num_faces(), [0.0; FACE_RECORD]);
         for a in 0..3 {
             out[lay.off[a]..lay.off[a + 1]]
                 .par_iter_mut()
-                .with_min_len(MIN_TASK / 17)
+                .with_min_len(MIN_TASK / FACE_RECORD)
                 .enumerate()
                 .for_each(|(idx, o)| {
-                    *o = [0.0; 17];
+                    *o = [0.0; FACE_RECORD];
                     let f = lay.face_coords(a, idx);
                     let mut diag = 0.0;
                     let mut slot = 0;
                     for (side, cell) in lay.face_cells(a, f).into_iter().enumerate() {
                         let Some(c) = cell else { continue };
                         diag += self.same[a];
-                        let data = &conv.cells[lay.cell(c)];
-                        let sa = 1 - side;
-                        for (q, b) in others(a).into_iter().enumerate() {
-                            let k = pair_index(a, b);
-                            for sb in 0..2 {
-                                let (d, e) = convection_entry(data, a, b, k, sa, sb);
-                                diag += e - 7.0 / 18.0 * d;
-                                o[1 + 8 * slot + 2 * q + sb] = d;
-                                o[5 + 8 * slot + 2 * q + sb] = e;
-                            }
-                        }
+                        let (coef, dg) = self.side_convection(a, side, &conv.cells[lay.cell(c)]);
+                        diag += dg;
+                        o[1 + 5 * slot..6 + 5 * slot].copy_from_slice(&coef);
                         slot += 1;
                     }
                     o[0] = diag;
                 });
         }
+    }
+
+    /// The coefficients of [`side_coefficients`] of a face of family `a` from its cell on
+    /// `side` (0: the face is the cell's upper face) with convection record `data`, and
+    /// that cell's convection share `sum_j (e_j - 7/18 d_j)` of the diagonal.
+    #[inline]
+    fn side_convection(&self, a: usize, side: usize, data: &[f64; 24]) -> ([f64; 5], f64) {
+        let sa = 1 - side;
+        let [b0, b1] = others(a);
+        let (mut d, mut e) = ([0.0; 4], [0.0; 4]);
+        let mut diag = 0.0;
+        for (q, b) in [b0, b1].into_iter().enumerate() {
+            let k = pair_index(a, b);
+            for sb in 0..2 {
+                let (dj, ej) = convection_entry(data, a, b, k, sa, sb);
+                diag += ej - 7.0 / 18.0 * dj;
+                (d[2 * q + sb], e[2 * q + sb]) = (dj, ej);
+            }
+        }
+        let coef = side_coefficients(self.opp[a], [self.adj[a][b0], self.adj[a][b1]], d, e);
+        (coef, diag)
     }
 
     /// Whether the operator carries a (non-symmetric) convection part.
@@ -476,28 +514,20 @@ impl FaceOperator {
             // plus cell (side 1); the opposite face is the other one
             let opp = if side == 0 { c } else { lay.upper(a, c) };
             let x_opp = x(lay.face(a, opp));
-            off += self.opp[a] * x_opp;
             let [b0, b1] = others(a);
             let xb = [
                 [x(lay.face(b0, c)), x(lay.face(b0, lay.upper(b0, c)))],
                 [x(lay.face(b1, c)), x(lay.face(b1, lay.upper(b1, c)))],
             ];
-            off +=
-                self.adj[a][b0] * (xb[0][0] + xb[0][1]) + self.adj[a][b1] * (xb[1][0] + xb[1][1]);
             if let Some(data) = conv(lay.cell(c)) {
-                // see [`Convection`]: sum_j d_ij (2/3 (v_i + v_j) - S_T/18 - v_i)
-                // + e_ij (v_i - v_j); `rest` = S_T - v_i
-                let data: &[f64; 24] = data.borrow();
-                let sa = 1 - side;
-                let rest = x_opp + xb[0][0] + xb[0][1] + xb[1][0] + xb[1][1];
-                for (q, b) in [b0, b1].into_iter().enumerate() {
-                    let k = pair_index(a, b);
-                    for (sb, &vj) in xb[q].iter().enumerate() {
-                        let (d, e) = convection_entry(data, a, b, k, sa, sb);
-                        diag += e - 7.0 / 18.0 * d;
-                        off += d * (2.0 / 3.0 * vj - rest / 18.0) - e * vj;
-                    }
-                }
+                // see [`Convection`] and [`side_coefficients`]
+                let (coef, dg) = self.side_convection(a, side, data.borrow());
+                diag += dg;
+                off += side_sum(&coef, x_opp, xb);
+            } else {
+                off += self.opp[a] * x_opp;
+                off += self.adj[a][b0] * (xb[0][0] + xb[0][1])
+                    + self.adj[a][b1] * (xb[1][0] + xb[1][1]);
             }
         }
         (diag, off)
@@ -636,10 +666,10 @@ impl FaceOperator {
             let t = i - i0;
             let mut diag = 0.0;
             let mut off = [0.0; M];
-            let fc: &[f64; 17] = if CONV {
+            let fc: &[f64; FACE_RECORD] = if CONV {
                 &self.faces[fbase + t]
             } else {
-                &[0.0; 17]
+                &[0.0; FACE_RECORD]
             };
             for (slot, s) in sides.iter().enumerate() {
                 if !CONV {
@@ -651,23 +681,12 @@ impl FaceOperator {
                     [x[s.xb[2] + t].lanes(), x[s.xb[3] + t].lanes()],
                 ];
                 for m in 0..M {
-                    off[m] += opp_c * x_opp[m];
-                    off[m] +=
-                        adj0 * (xb[0][0][m] + xb[0][1][m]) + adj1 * (xb[1][0][m] + xb[1][1][m]);
-                }
-                if CONV {
-                    let rest: [f64; M] = std::array::from_fn(|m| {
-                        x_opp[m] + xb[0][0][m] + xb[0][1][m] + xb[1][0][m] + xb[1][1][m]
-                    });
-                    for q in 0..2 {
-                        for sb in 0..2 {
-                            let d = fc[1 + 8 * slot + 2 * q + sb];
-                            let e = fc[5 + 8 * slot + 2 * q + sb];
-                            for m in 0..M {
-                                let vj = xb[q][sb][m];
-                                off[m] += d * (2.0 / 3.0 * vj - rest[m] / 18.0) - e * vj;
-                            }
-                        }
+                    let xbm = [[xb[0][0][m], xb[0][1][m]], [xb[1][0][m], xb[1][1][m]]];
+                    if CONV {
+                        off[m] += side_sum(&fc[1 + 5 * slot..6 + 5 * slot], x_opp[m], xbm);
+                    } else {
+                        off[m] += opp_c * x_opp[m];
+                        off[m] += adj0 * (xbm[0][0] + xbm[0][1]) + adj1 * (xbm[1][0] + xbm[1][1]);
                     }
                 }
             }
