@@ -2,11 +2,12 @@
 # The cost of a fluid step at a CFL number U dt/h of about 0.5-1, on 2 threads: the seed's
 # sedimentation box as a fluid-only channel (cases/channel-10x2x2.toml, inflow peak
 # 1 cm/s) and the single settling sphere (cases/sedimentation-single.toml with
-# rho/rho_f = 1.2: about 6 cm/s), at levels 3 and 4. Prints one markdown row per case:
-# the medians over REPS runs (alternating cases) of the wall seconds per fluid step
-# (`mean_step_s` of summary.json), with the multigrid cycles per step, the momentum and
-# pressure seconds per step, ns per DOF per step and per cycle (momentum: per face and
-# component cycle; pressure: per cell), and `uptime` before each case.
+# rho/rho_f = 1.2: 8 cm/s at t = 0.1, 12 at t = 0.3), at levels 3 and 4. Prints one
+# markdown row per case: the medians over REPS runs (alternating cases) of the wall
+# seconds per fluid step (`mean_step_s` of summary.json), with the multigrid cycles per
+# step, the momentum and pressure seconds per step, ns per DOF per step and per cycle
+# (momentum: per face and component cycle; pressure: per cell), the load (`uptime`)
+# before each run and the sphere's velocity over the last tenth of the run.
 #
 #   scripts/fluid-step-cost.sh                  # all cases, REPS=3
 #   REPS=1 CASES="ch3 sed3" scripts/fluid-step-cost.sh
@@ -15,6 +16,8 @@
 # Cases: ch3 / ch4 (channel, level 3 dt 0.1 / level 4 dt 0.05: U dt/h = 1, 8 / 6 steps
 # from rest), sed3 / sed4 (sphere, level 3 dt 0.0075 to t = 0.3, 40 steps, U dt/h up to
 # 0.9 / level 4 dt 0.005 to t = 0.1, 20 steps, up to about 0.8; from rest; DEM dt 1e-5).
+# sed3h / sed4h: the same at half the fluid step (80 / 40 steps, U dt/h up to 0.45 / 0.4),
+# for the one-substep schemes (`--set fluid.scheme=backward_euler`).
 # The binary: $BIN, or $CARGO_TARGET_DIR (or target)/release/grainflow.
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -40,6 +43,12 @@ run_case() {
            --set simulation.output_interval=1 --until 0.3 --threads 2 --out "$dir" "$@" ;;
     sed4) "$BIN" run cases/sedimentation-single.toml --set materials.0.density=1.2 \
            --set fluid.level=4 --set fluid.dt=0.005 --set simulation.dt=1e-5 \
+           --set simulation.output_interval=1 --until 0.1 --threads 2 --out "$dir" "$@" ;;
+    sed3h) "$BIN" run cases/sedimentation-single.toml --set materials.0.density=1.2 \
+           --set fluid.level=3 --set fluid.dt=0.00375 --set simulation.dt=1e-5 \
+           --set simulation.output_interval=1 --until 0.3 --threads 2 --out "$dir" "$@" ;;
+    sed4h) "$BIN" run cases/sedimentation-single.toml --set materials.0.density=1.2 \
+           --set fluid.level=4 --set fluid.dt=0.0025 --set simulation.dt=1e-5 \
            --set simulation.output_interval=1 --until 0.1 --threads 2 --out "$dir" "$@" ;;
     *) echo "unknown case $name" >&2; exit 1 ;;
   esac >/dev/null 2>&1
