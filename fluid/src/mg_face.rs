@@ -35,11 +35,11 @@
 //!
 //! `FaceMg<M>` solves `M` problems with the same operator at once (the three velocity
 //! components of a momentum step, [`FaceMg::solve_all`]): the level vectors hold the `M`
-//! values of a face side by side ([`crate::ops::Lanes`]), so each smoothing sweep, residual and transfer
-//! reads the operator's tables and the transfer's index lists once for all `M`. Every
-//! vector sees the arithmetic of a one-vector solve; only the step length of the
-//! coarse-grid correction and the coarsest-level solve are per vector, and the cycles run
-//! until every vector has met the tolerance.
+//! values of a face side by side ([`crate::ops::Lanes`]), so each smoothing sweep,
+//! residual and transfer reads the operator's tables and the transfer's index lists once
+//! for all `M`. Every vector sees the arithmetic of a one-vector solve; the step length of
+//! the coarse-grid correction and the coarsest-level solve are per vector, and the cycles
+//! run until every vector has met the tolerance.
 
 use crate::grid::Grid;
 use crate::mg_cell::MgReport;

@@ -191,7 +191,7 @@ impl NsConfig {
     /// the seed's channel at U dt/h = 1 (level 3, to t = 2) they move the velocity by at
     /// most 1.8e-5 of the inflow peak from the solution with both at 1e-10, against time
     /// discretisation errors of 3e-3 (Crank-Nicolson) to 3e-2 (backward Euler); the
-    /// settling sphere's velocity moves by 2e-6 of itself. They take half the momentum
+    /// settling sphere's velocity moves by 2e-8 of itself. They take half the momentum
     /// and two thirds of the pressure cycles of 1e-6 / 1e-8 at U dt/h ~ 1; the largest
     /// cell divergence after a step is proportional to the pressure tolerance (5e-5
     /// against 4e-8 there, per cell volume, velocities ~1).
