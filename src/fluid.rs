@@ -218,6 +218,8 @@ pub fn fluid_flow(f: &Fluid, grid: &Grid, gravity: [f64; 3]) -> FluidFlow {
     };
     cfg.upwind = f.upwind;
     cfg.solve_upwind = f.solve_upwind;
+    cfg.momentum_rtol = f.momentum_rtol.unwrap_or(cfg.momentum_rtol);
+    cfg.pressure_rtol = f.pressure_rtol.unwrap_or(cfg.pressure_rtol);
     cfg.viscous = match f.viscous {
         FluidViscous::Laplacian => ViscousForm::Laplacian,
         FluidViscous::Deformation => ViscousForm::Deformation,

@@ -333,8 +333,8 @@ impl Simulation {
     }
 
     /// The `fluid` object of the run report: level, degrees of freedom, steps, wall seconds
-    /// per fluid step, and per sub-problem the multigrid cycles per step and the mean
-    /// (geometric) residual reduction per cycle. Null without a fluid grid.
+    /// per fluid step, and per sub-problem the multigrid cycles per step, the mean
+    /// (geometric) residual reduction per cycle and the wall seconds per step. Null without a fluid grid.
     pub fn fluid_summary(&self) -> serde_json::Value {
         let Some(flow) = self.world.get_resource::<FluidFlow>() else {
             return serde_json::Value::Null;
@@ -350,10 +350,12 @@ impl Simulation {
             "momentum": {
                 "cycles_per_step": s.momentum_cycles as f64 / steps,
                 "mean_reduction_per_cycle": (s.momentum_log_rate / steps).exp(),
+                "seconds_per_step": s.momentum_seconds / steps,
             },
             "pressure": {
                 "cycles_per_step": s.pressure_cycles as f64 / steps,
                 "mean_reduction_per_cycle": (s.pressure_log_rate / steps).exp(),
+                "seconds_per_step": s.pressure_seconds / steps,
             },
             "max_divergence": s.max_divergence,
         })

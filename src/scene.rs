@@ -149,6 +149,13 @@ pub struct Fluid {
     /// the steady states are those of `upwind`); default: `upwind` itself.
     #[serde(default)]
     pub solve_upwind: Option<f64>,
+    /// Relative residual reduction of each momentum solve; default: the solver's
+    /// (`grainflow_fluid::NsConfig::new`).
+    #[serde(default)]
+    pub momentum_rtol: Option<f64>,
+    /// Relative residual reduction of each pressure solve; default: the solver's.
+    #[serde(default)]
+    pub pressure_rtol: Option<f64>,
     /// Constant body force per unit mass on the fluid, m/s^2 (drives periodic flows;
     /// gravity is not applied to the fluid: its hydrostatic part is the buoyancy).
     #[serde(default)]
@@ -791,6 +798,19 @@ fn validate_fluid_grid(f: &Fluid) -> Result<(), Invalid> {
     positive("fluid.upwind".into(), f.upwind)?;
     if let Some(s) = f.solve_upwind {
         positive("fluid.solve_upwind".into(), s)?;
+    }
+    for (name, rtol) in [
+        ("momentum_rtol", f.momentum_rtol),
+        ("pressure_rtol", f.pressure_rtol),
+    ] {
+        if let Some(r) = rtol {
+            if !(r > 0.0 && r < 1.0) {
+                return Err((
+                    format!("fluid.{name}"),
+                    format!("expected a number in (0, 1), got {r}"),
+                ));
+            }
+        }
     }
     let min = f.min.ok_or_else(|| need("min"))?;
     let max = f.max.ok_or_else(|| need("max"))?;

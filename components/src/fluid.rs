@@ -39,6 +39,9 @@ pub struct FluidStats {
     pub momentum_log_rate: f64,
     pub pressure_cycles: u64,
     pub pressure_log_rate: f64,
+    /// Wall seconds of the momentum solves and of the pressure solves.
+    pub momentum_seconds: f64,
+    pub pressure_seconds: f64,
     pub max_divergence: f64,
 }
 
@@ -51,6 +54,8 @@ impl FluidStats {
         self.momentum_log_rate += r.momentum_reduction.max(1e-300).ln();
         self.pressure_cycles += r.pressure_cycles as u64;
         self.pressure_log_rate += r.pressure_reduction.max(1e-300).ln();
+        self.momentum_seconds += r.momentum_seconds;
+        self.pressure_seconds += r.pressure_seconds;
         self.max_divergence = self.max_divergence.max(r.max_divergence);
     }
 }

@@ -32,10 +32,18 @@
 //! Dirichlet faces (box sides of kind Dirichlet on every level, plus any extra mask given
 //! for the finest level such as fictitious-boundary markers) keep their values: they have
 //! zero residual and receive no correction.
+//!
+//! `FaceMg<M>` solves `M` problems with the same operator at once (the three velocity
+//! components of a momentum step, [`FaceMg::solve_all`]): the level vectors hold the `M`
+//! values of a face side by side ([`crate::ops::Lanes`]), so each smoothing sweep,
+//! residual and transfer reads the operator's tables and the transfer's index lists once
+//! for all `M`. Every vector sees the arithmetic of a one-vector solve; the step length of
+//! the coarse-grid correction and the coarsest-level solve are per vector, and the cycles
+//! run until every vector has met the tolerance.
 
 use crate::grid::Grid;
 use crate::mg_cell::MgReport;
-use crate::ops::{axpy, dot, min_rows, others, serial_dot, FaceOperator};
+use crate::ops::{min_rows, others, serial_dot, FaceOperator, CHUNK};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -134,59 +142,112 @@ impl FaceTransfer {
         }
     }
 
-    /// `x += P xc`.
-    fn prolong_add(&self, xc: &[f64], x: &mut [f64]) {
+    /// `x += P xc` (each of the `M` vectors).
+    fn prolong_add<const M: usize>(&self, xc: &[[f64; M]], x: &mut [[f64; M]]) {
         x.par_iter_mut()
             .with_min_len(min_rows(1))
             .enumerate()
             .for_each(|(fi, o)| {
                 let row = &self.entries[self.start[fi]..self.start[fi + 1]];
-                *o += row.iter().map(|&(q, w)| w * xc[q as usize]).sum::<f64>();
+                let mut s = [0.0; M];
+                for &(q, w) in row {
+                    let v = &xc[q as usize];
+                    for m in 0..M {
+                        s[m] += w * v[m];
+                    }
+                }
+                for m in 0..M {
+                    o[m] += s[m];
+                }
             });
     }
 
     /// `rc = P^T r`, zero on the coarse faces masked in `coarse_mask`.
-    fn restrict(&self, r: &[f64], rc: &mut [f64], coarse_mask: &[bool]) {
+    fn restrict<const M: usize>(&self, r: &[[f64; M]], rc: &mut [[f64; M]], coarse_mask: &[bool]) {
         rc.par_iter_mut()
             .with_min_len(min_rows(1))
             .enumerate()
             .for_each(|(q, o)| {
-                *o = if coarse_mask[q] {
-                    0.0
-                } else {
+                *o = [0.0; M];
+                if !coarse_mask[q] {
                     let col = &self.t_entries[self.t_start[q]..self.t_start[q + 1]];
-                    col.iter().map(|&(fi, w)| w * r[fi as usize]).sum()
-                };
+                    for &(fi, w) in col {
+                        let v = &r[fi as usize];
+                        for m in 0..M {
+                            o[m] += w * v[m];
+                        }
+                    }
+                }
             });
     }
 }
 
-struct FaceLevel {
+struct FaceLevel<const M: usize> {
     grid: Grid,
     op: FaceOperator,
     mask: Vec<bool>,
     transfer: Option<FaceTransfer>,
-    x: Vec<f64>,
-    b: Vec<f64>,
-    r: Vec<f64>,
-    tmp: Vec<f64>,
-    av: Vec<f64>,
+    x: Vec<[f64; M]>,
+    b: Vec<[f64; M]>,
+    r: Vec<[f64; M]>,
+    tmp: Vec<[f64; M]>,
+    av: Vec<[f64; M]>,
 }
 
-/// Multigrid for `(alpha M + nu K) u = f` on levels 1 to `grid.level`.
-pub struct FaceMg {
-    levels: Vec<FaceLevel>,
+/// Per-vector `sum_i a_i b_i` of `M` interleaved vectors, summed in the fixed chunks of
+/// [`crate::ops::dot`] (independent of the thread count).
+fn dot_lanes<const M: usize>(a: &[[f64; M]], b: &[[f64; M]]) -> [f64; M] {
+    let partial: Vec<[f64; M]> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(x, y)| {
+            let mut s = [0.0; M];
+            for (p, q) in x.iter().zip(y) {
+                for m in 0..M {
+                    s[m] += p[m] * q[m];
+                }
+            }
+            s
+        })
+        .collect();
+    let mut s = [0.0; M];
+    for p in &partial {
+        for m in 0..M {
+            s[m] += p[m];
+        }
+    }
+    s
+}
+
+/// Multigrid for `(alpha M + nu K) u = f` on levels 1 to `grid.level`, for `M` vectors at
+/// once (see the module docs).
+pub struct FaceMg<const M: usize = 1> {
+    levels: Vec<FaceLevel<M>>,
     /// Pre- and post-smoothing sweeps (each sweep: all six colours).
     pub smoothing: (usize, usize),
     /// Cycle type.
     pub cycle: Cycle,
 }
 
-impl FaceMg {
+impl FaceMg<1> {
+    /// Hierarchy for `alpha M + nu K` on `grid` for one vector (see [`FaceMg::with_mask`]).
+    pub fn new(grid: &Grid, alpha: f64, nu: f64, mask: Vec<bool>) -> Self {
+        Self::with_mask(grid, alpha, nu, mask)
+    }
+
+    /// Solves from the initial `x` (whose masked entries are the prescribed values) until
+    /// the residual of the free faces drops by `rtol` or `max_cycles` cycles were done.
+    pub fn solve(&mut self, x: &mut [f64], b: &[f64], rtol: f64, max_cycles: usize) -> MgReport {
+        let [rep] = self.solve_all([x], [b], rtol, max_cycles);
+        rep
+    }
+}
+
+impl<const M: usize> FaceMg<M> {
     /// Hierarchy for `alpha M + nu K` on `grid`; `mask` flags the finest-level faces whose
     /// values are prescribed (at least [`Grid::dirichlet_mask`]). Coarse levels use the box
     /// boundary conditions only.
-    pub fn new(grid: &Grid, alpha: f64, nu: f64, mask: Vec<bool>) -> Self {
+    pub fn with_mask(grid: &Grid, alpha: f64, nu: f64, mask: Vec<bool>) -> Self {
         assert_eq!(mask.len(), grid.num_faces(), "mask: one flag per face");
         let mut grids = vec![grid.clone()];
         while let Some(c) = grids.last().unwrap().coarser() {
@@ -215,11 +276,11 @@ impl FaceMg {
                     op: FaceOperator::helmholtz(g, alpha, nu),
                     mask,
                     transfer,
-                    x: vec![0.0; n],
-                    b: vec![0.0; n],
-                    r: vec![0.0; n],
-                    tmp: vec![0.0; n],
-                    av: vec![0.0; n],
+                    x: vec![[0.0; M]; n],
+                    b: vec![[0.0; M]; n],
+                    r: vec![[0.0; M]; n],
+                    tmp: vec![[0.0; M]; n],
+                    av: vec![[0.0; M]; n],
                 }
             })
             .collect();
@@ -266,14 +327,15 @@ impl FaceMg {
     /// operators of all levels (keeping `alpha` and `nu` of [`FaceMg::set_operator`]); `w`
     /// reaches the coarser levels as the mean of the four fine faces of each coarse face.
     pub fn set_convection(&mut self, w: [&[f64]; 3]) {
-        let mut cur: [Vec<f64>; 3] = w.map(|c| c.to_vec());
+        let mut cur: Option<[Vec<f64>; 3]> = None;
         for k in (0..self.levels.len()).rev() {
             let l = &mut self.levels[k];
+            let wk = cur.as_ref().map_or(w, |c| [&c[0][..], &c[1], &c[2]]);
             let op = std::mem::replace(&mut l.op, FaceOperator::helmholtz(&l.grid, 0.0, 0.0));
-            l.op = op.with_convection(&l.grid, [&cur[0], &cur[1], &cur[2]]);
+            l.op = op.with_convection(&l.grid, wk);
             if let Some(coarse) = l.grid.coarser() {
                 let fine = l.grid.layout();
-                cur = cur.map(|c| restrict_face_means(&coarse, &fine, &c));
+                cur = Some(wk.map(|c| restrict_face_means(&coarse, &fine, c)));
             }
         }
     }
@@ -288,34 +350,67 @@ impl FaceMg {
         &self.levels.last().unwrap().mask
     }
 
-    /// Solves from the initial `x` (whose masked entries are the prescribed values) until
-    /// the residual of the free faces drops by `rtol` or `max_cycles` cycles were done.
-    pub fn solve(&mut self, x: &mut [f64], b: &[f64], rtol: f64, max_cycles: usize) -> MgReport {
+    /// Solves the `M` problems `A x_m = b_m` from the initial `x_m` (whose masked entries
+    /// are the prescribed values) with common cycles, until the residual of the free faces
+    /// of every one has dropped by `rtol` or `max_cycles` cycles were done. One report per
+    /// vector (its residuals; the cycles and seconds are those of the common solve).
+    pub fn solve_all(
+        &mut self,
+        x: [&mut [f64]; M],
+        b: [&[f64]; M],
+        rtol: f64,
+        max_cycles: usize,
+    ) -> [MgReport; M] {
         let fine = self.levels.len() - 1;
         let start = Instant::now();
         let l = &mut self.levels[fine];
-        l.x.copy_from_slice(x);
-        l.b.copy_from_slice(b);
+        l.x.par_iter_mut()
+            .with_min_len(min_rows(1))
+            .enumerate()
+            .for_each(|(i, o)| *o = std::array::from_fn(|m| x[m][i]));
+        l.b.par_iter_mut()
+            .with_min_len(min_rows(1))
+            .enumerate()
+            .for_each(|(i, o)| *o = std::array::from_fn(|m| b[m][i]));
         l.op.residual(&l.x, &l.b, &l.mask, &mut l.r);
-        let mut rep = MgReport {
-            initial_residual: dot(&l.r, &l.r).sqrt(),
+        let r0 = dot_lanes(&l.r, &l.r).map(f64::sqrt);
+        let mut rep: [MgReport; M] = std::array::from_fn(|m| MgReport {
+            initial_residual: r0[m],
+            final_residual: r0[m],
             ..Default::default()
-        };
-        rep.final_residual = rep.initial_residual;
-        while rep.cycles < max_cycles && rep.final_residual > rtol * rep.initial_residual {
+        });
+        let mut cycles = 0;
+        while cycles < max_cycles
+            && rep
+                .iter()
+                .any(|r| r.final_residual > rtol * r.initial_residual)
+        {
             self.cycle(fine);
             let l = &mut self.levels[fine];
             l.op.residual(&l.x, &l.b, &l.mask, &mut l.r);
-            rep.final_residual = dot(&l.r, &l.r).sqrt();
-            rep.cycles += 1;
+            let rr = dot_lanes(&l.r, &l.r);
+            for (r, v) in rep.iter_mut().zip(rr) {
+                r.final_residual = v.sqrt();
+            }
+            cycles += 1;
         }
-        x.copy_from_slice(&self.levels[fine].x);
-        rep.seconds = start.elapsed().as_secs_f64();
-        rep.finish();
+        let l = &self.levels[fine];
+        for (m, xm) in x.into_iter().enumerate() {
+            xm.par_iter_mut()
+                .with_min_len(min_rows(1))
+                .enumerate()
+                .for_each(|(i, o)| *o = l.x[i][m]);
+        }
+        let seconds = start.elapsed().as_secs_f64();
+        for r in &mut rep {
+            r.cycles = cycles;
+            r.seconds = seconds;
+            r.finish();
+        }
         rep
     }
 
-    fn smooth(l: &mut FaceLevel, sweeps: usize, forward: bool) {
+    fn smooth(l: &mut FaceLevel<M>, sweeps: usize, forward: bool) {
         let order = [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)];
         for _ in 0..sweeps {
             for s in 0..6 {
@@ -328,10 +423,21 @@ impl FaceMg {
     /// One cycle on level `k` for `levels[k].x` with right-hand side `levels[k].b`.
     fn cycle(&mut self, k: usize) {
         if k == 0 {
-            if self.levels[0].op.has_convection() {
-                coarse_bicgstab(&mut self.levels[0]);
-            } else {
-                coarse_cg(&mut self.levels[0]);
+            let l = &mut self.levels[0];
+            let n = l.x.len();
+            let (mut x, mut b) = (vec![0.0; n], vec![0.0; n]);
+            for m in 0..M {
+                for ((xi, bi), (lx, lb)) in x.iter_mut().zip(&mut b).zip(l.x.iter().zip(&l.b)) {
+                    (*xi, *bi) = (lx[m], lb[m]);
+                }
+                if l.op.has_convection() {
+                    coarse_bicgstab(&l.op, &l.mask, &mut x, &b);
+                } else {
+                    coarse_cg(&l.op, &l.mask, &mut x, &b);
+                }
+                for (lx, xi) in l.x.iter_mut().zip(&x) {
+                    lx[m] = *xi;
+                }
             }
             return;
         }
@@ -348,7 +454,7 @@ impl FaceMg {
             fine.op.residual(&fine.x, &fine.b, &fine.mask, &mut fine.r);
             let tr = fine.transfer.as_ref().expect("level > 1");
             tr.restrict(&fine.r, &mut coarse.b, &coarse.mask);
-            coarse.x.iter_mut().for_each(|v| *v = 0.0);
+            coarse.x.iter_mut().for_each(|v| *v = [0.0; M]);
         }
         for _ in 0..visits {
             self.cycle(k - 1);
@@ -358,27 +464,38 @@ impl FaceMg {
         let coarse = &lower[k - 1];
         let tr = fine.transfer.as_ref().expect("level > 1");
         // adaptive step length: x += alpha v, v = P e_c, alpha = (r, v) / (A v, v)
-        fine.tmp.iter_mut().for_each(|v| *v = 0.0);
+        fine.tmp.iter_mut().for_each(|v| *v = [0.0; M]);
         tr.prolong_add(&coarse.x, &mut fine.tmp);
         fine.tmp.iter_mut().zip(&fine.mask).for_each(|(v, &m)| {
             if m {
-                *v = 0.0
+                *v = [0.0; M]
             }
         });
         fine.op.apply(&fine.tmp, &mut fine.av);
         fine.av.iter_mut().zip(&fine.mask).for_each(|(v, &m)| {
             if m {
-                *v = 0.0
+                *v = [0.0; M]
             }
         });
         // symmetric: energy-minimising step; with convection: residual-minimising step
         let (num, den) = if fine.op.has_convection() {
-            (dot(&fine.r, &fine.av), dot(&fine.av, &fine.av))
+            (dot_lanes(&fine.r, &fine.av), dot_lanes(&fine.av, &fine.av))
         } else {
-            (dot(&fine.r, &fine.tmp), dot(&fine.av, &fine.tmp))
+            (
+                dot_lanes(&fine.r, &fine.tmp),
+                dot_lanes(&fine.av, &fine.tmp),
+            )
         };
-        let alpha = if den > 0.0 { num / den } else { 1.0 };
-        axpy(alpha, &fine.tmp, &mut fine.x);
+        let alpha: [f64; M] =
+            std::array::from_fn(|m| if den[m] > 0.0 { num[m] / den[m] } else { 1.0 });
+        fine.x
+            .par_iter_mut()
+            .zip(fine.tmp.par_iter())
+            .for_each(|(y, v)| {
+                for m in 0..M {
+                    y[m] += alpha[m] * v[m];
+                }
+            });
         Self::smooth(fine, nu2, false);
     }
 }
@@ -410,9 +527,9 @@ fn restrict_face_means(coarse: &Grid, fine: &crate::grid::Layout, x: &[f64]) -> 
 }
 
 /// `y = A x` with the masked rows set to zero.
-fn masked_apply(l: &FaceLevel, x: &[f64], y: &mut [f64]) {
-    l.op.apply(x, y);
-    for (yi, &m) in y.iter_mut().zip(&l.mask) {
+fn masked_apply(op: &FaceOperator, mask: &[bool], x: &[f64], y: &mut [f64]) {
+    op.apply(x, y);
+    for (yi, &m) in y.iter_mut().zip(mask) {
         if m {
             *yi = 0.0;
         }
@@ -428,26 +545,27 @@ const COARSE_BICGSTAB_STEPS: usize = 1000;
 
 /// BiCGStab on the free faces of the coarsest level (1e-10 relative, at most
 /// [`COARSE_BICGSTAB_STEPS`] steps; serial: the coarsest level is small).
-fn coarse_bicgstab(l: &mut FaceLevel) {
-    let n = l.x.len();
-    l.op.residual(&l.x, &l.b, &l.mask, &mut l.r);
-    let r0 = l.r.clone();
-    let mut p = l.r.clone();
+fn coarse_bicgstab(op: &FaceOperator, mask: &[bool], x: &mut [f64], b: &[f64]) {
+    let n = x.len();
+    let mut r = vec![0.0; n];
+    op.residual(x, b, mask, &mut r);
+    let r0 = r.clone();
+    let mut p = r.clone();
     let mut v = vec![0.0; n];
     let mut s = vec![0.0; n];
     let mut t = vec![0.0; n];
-    let mut rho = serial_dot(&r0, &l.r);
-    let stop = 1e-20 * serial_dot(&l.r, &l.r);
+    let mut rho = serial_dot(&r0, &r);
+    let stop = 1e-20 * serial_dot(&r, &r);
     for _ in 0..(2 * n).min(COARSE_BICGSTAB_STEPS) {
-        if serial_dot(&l.r, &l.r) <= stop || rho == 0.0 {
+        if serial_dot(&r, &r) <= stop || rho == 0.0 {
             break;
         }
-        masked_apply(l, &p, &mut v);
+        masked_apply(op, mask, &p, &mut v);
         let alpha = rho / serial_dot(&r0, &v);
         for i in 0..n {
-            s[i] = l.r[i] - alpha * v[i];
+            s[i] = r[i] - alpha * v[i];
         }
-        masked_apply(l, &s, &mut t);
+        masked_apply(op, mask, &s, &mut t);
         let tt = serial_dot(&t, &t);
         let omega = if tt > 0.0 {
             serial_dot(&t, &s) / tt
@@ -455,48 +573,44 @@ fn coarse_bicgstab(l: &mut FaceLevel) {
             0.0
         };
         for i in 0..n {
-            l.x[i] += alpha * p[i] + omega * s[i];
-            l.r[i] = s[i] - omega * t[i];
+            x[i] += alpha * p[i] + omega * s[i];
+            r[i] = s[i] - omega * t[i];
         }
-        let rho_new = serial_dot(&r0, &l.r);
+        let rho_new = serial_dot(&r0, &r);
         if omega == 0.0 {
             break;
         }
         let beta = rho_new / rho * alpha / omega;
         rho = rho_new;
         for i in 0..n {
-            p[i] = l.r[i] + beta * (p[i] - omega * v[i]);
+            p[i] = r[i] + beta * (p[i] - omega * v[i]);
         }
     }
 }
 
 /// Conjugate gradients on the free faces of the coarsest level (1e-12 relative).
-fn coarse_cg(l: &mut FaceLevel) {
-    let n = l.x.len();
-    l.op.residual(&l.x, &l.b, &l.mask, &mut l.r);
-    let mut d = l.r.clone();
+fn coarse_cg(op: &FaceOperator, mask: &[bool], x: &mut [f64], b: &[f64]) {
+    let n = x.len();
+    let mut r = vec![0.0; n];
+    op.residual(x, b, mask, &mut r);
+    let mut d = r.clone();
     let mut q = vec![0.0; n];
-    let mut rr = serial_dot(&l.r, &l.r);
+    let mut rr = serial_dot(&r, &r);
     let stop = 1e-24 * rr;
     for _ in 0..10 * n {
         if rr <= stop || rr == 0.0 {
             break;
         }
-        l.op.apply(&d, &mut q);
-        for (qi, &m) in q.iter_mut().zip(&l.mask) {
-            if m {
-                *qi = 0.0;
-            }
-        }
+        masked_apply(op, mask, &d, &mut q);
         let alpha = rr / serial_dot(&d, &q);
         for i in 0..n {
-            l.x[i] += alpha * d[i];
-            l.r[i] -= alpha * q[i];
+            x[i] += alpha * d[i];
+            r[i] -= alpha * q[i];
         }
-        let rr_new = serial_dot(&l.r, &l.r);
+        let rr_new = serial_dot(&r, &r);
         let beta = rr_new / rr;
         rr = rr_new;
-        d.iter_mut().zip(&l.r).for_each(|(d, r)| *d = r + beta * *d);
+        d.iter_mut().zip(&r).for_each(|(d, r)| *d = r + beta * *d);
     }
 }
 
@@ -526,13 +640,14 @@ mod tests {
         let uc = interp(&coarse);
         let uf = interp(&fine);
         let tr = FaceTransfer::new(&coarse, &fine, &vec![false; fine.num_faces()]);
-        let mut x = vec![0.0; fine.num_faces()];
+        let uc: Vec<[f64; 1]> = uc.into_iter().map(|v| [v]).collect();
+        let mut x = vec![[0.0]; fine.num_faces()];
         tr.prolong_add(&uc, &mut x);
         for i in 0..x.len() {
             assert!(
-                (x[i] - uf[i]).abs() < 1e-13,
+                (x[i][0] - uf[i]).abs() < 1e-13,
                 "face {i}: {} vs {}",
-                x[i],
+                x[i][0],
                 uf[i]
             );
         }

@@ -107,6 +107,7 @@ use crate::ops::{
     add_gradient, divergence, lumped_mass, pressure_jump, ConvectionGeometry, FaceOperator,
     TransposeStiffness,
 };
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Time discretisation of [`NavierStokes::step`].
@@ -185,13 +186,15 @@ pub struct NsConfig {
 
 impl NsConfig {
     /// Defaults: fractional-step theta, one backward-Euler start-up step, tolerances
-    /// 1e-6 (momentum) and 1e-8 (pressure), at most 50 cycles. The momentum tolerance:
-    /// on the seed's channel (level 3, dt = 0.01) one V-cycle already reduces the
-    /// residual by ~5e-8, so 1e-6 takes 1 cycle per solve instead of 2 at 1e-8 (step
-    /// 0.30 s instead of 0.45-0.50 s, measured with `channel_step_timings`) and changes
-    /// the velocity by at most 8e-9 (velocities ~1) after 4 steps. The pressure keeps
-    /// 1e-8: the divergence after a step is proportional to it (1.4e-10 at 1e-8, 1.8e-7
-    /// at 1e-5, for 24 instead of 15 V-cycles per step, ~0.02 s of the step).
+    /// 1e-3 (momentum) and 1e-5 (pressure), at most 50 cycles. The tolerances
+    /// (docs/fluid-benchmarks.md, "The cost of a fluid step", `benches/step_error.rs`): on
+    /// the seed's channel at U dt/h = 1 (level 3, to t = 2) they move the velocity by at
+    /// most 1.8e-5 of the inflow peak from the solution with both at 1e-10, against time
+    /// discretisation errors of 3e-3 (Crank-Nicolson) to 3e-2 (backward Euler); the
+    /// settling sphere's velocity moves by 2e-8 of itself. They take half the momentum
+    /// and two thirds of the pressure cycles of 1e-6 / 1e-8 at U dt/h ~ 1; the largest
+    /// cell divergence after a step is proportional to the pressure tolerance (5e-5
+    /// against 4e-8 there, per cell volume, velocities ~1).
     pub fn new(nu: f64, dt: f64) -> Self {
         NsConfig {
             nu,
@@ -199,8 +202,8 @@ impl NsConfig {
             scheme: TimeScheme::FractionalStepTheta,
             viscous: ViscousForm::Laplacian,
             startup_steps: 1,
-            momentum_rtol: 1e-6,
-            pressure_rtol: 1e-8,
+            momentum_rtol: 1e-3,
+            pressure_rtol: 1e-5,
             max_cycles: 50,
             upwind: 1.0,
             solve_upwind: None,
@@ -240,11 +243,19 @@ struct Tally {
 
 impl Tally {
     fn add(&mut self, r: &MgReport) {
-        self.cycles += r.cycles;
-        self.seconds += r.seconds;
-        if r.cycles > 0 && r.initial_residual > 0.0 && r.final_residual > 0.0 {
-            self.log += (r.final_residual / r.initial_residual).ln();
+        self.add_common(std::slice::from_ref(r));
+    }
+
+    /// The reports of the problems of one common solve ([`FaceMg::solve_all`]): the
+    /// cycles and reductions of each, its wall time once.
+    fn add_common(&mut self, reps: &[MgReport]) {
+        for r in reps {
+            self.cycles += r.cycles;
+            if r.cycles > 0 && r.initial_residual > 0.0 && r.final_residual > 0.0 {
+                self.log += (r.final_residual / r.initial_residual).ln();
+            }
         }
+        self.seconds += reps.first().map_or(0.0, |r| r.seconds);
     }
 
     fn mean(&self) -> f64 {
@@ -274,6 +285,10 @@ struct Scratch {
     q: Vec<f64>,
     /// Deferred upwind correction per face (three components).
     correction: Vec<[f64; 3]>,
+    /// The three velocity components side by side, and an operator applied to them (one
+    /// pass over the convection tables for all three, see [`crate::ops::Lanes`]).
+    lanes: Vec<[f64; 3]>,
+    applied: Vec<[f64; 3]>,
 }
 
 /// Transient incompressible Navier-Stokes solver on one grid level.
@@ -287,7 +302,8 @@ pub struct NavierStokes {
     project_markers: bool,
     /// Lumped mass per face.
     ml: Vec<f64>,
-    mg: FaceMg,
+    /// The momentum multigrid, all three components at once.
+    mg: FaceMg<3>,
     pmg: PressureMg,
     /// Velocity face values, one vector per component; masked faces hold the prescribed
     /// values.
@@ -328,7 +344,7 @@ impl NavierStokes {
         let nf = grid.num_faces();
         NavierStokes {
             grid: grid.clone(),
-            mg: FaceMg::new(grid, 1.0, cfg.nu, mask.clone()),
+            mg: FaceMg::with_mask(grid, 1.0, cfg.nu, mask.clone()),
             pmg: PressureMg::new(grid),
             kt: (cfg.viscous == ViscousForm::Deformation).then(|| TransposeStiffness::new(grid)),
             cfg,
@@ -462,7 +478,7 @@ impl NavierStokes {
             pressure_reduction: pre.mean(),
             momentum_seconds: mom.seconds,
             pressure_seconds: pre.seconds,
-            max_divergence: self.max_divergence(),
+            max_divergence: max_divergence_in(&self.grid, &self.u, &mut self.scratch.divergence),
             seconds: start.elapsed().as_secs_f64(),
         }
     }
@@ -499,9 +515,7 @@ impl NavierStokes {
 
     /// `max_T |(B^T u)_T| / |T|` of the current velocity.
     pub fn max_divergence(&self) -> f64 {
-        let mut div = vec![0.0; self.grid.num_cells()];
-        divergence(&self.grid, [&self.u[0], &self.u[1], &self.u[2]], &mut div);
-        div.iter().fold(0.0f64, |m, d| m.max(d.abs())) / self.grid.cell_volume()
+        max_divergence_in(&self.grid, &self.u, &mut Vec::new())
     }
 
     /// One substep (see the module docs).
@@ -523,8 +537,10 @@ impl NavierStokes {
         sc.face.resize(nf, 0.0);
         // right-hand side [M_l - w_e A(u_old)] u_old - k_s B p_old, scaled by 1/w_i
         for (rc, uc) in sc.rhs.iter_mut().zip(&self.u) {
-            rc.clear();
-            rc.extend(uc.iter().zip(&self.ml).map(|(u, m)| m * u));
+            rc.resize(nf, 0.0);
+            rc.par_iter_mut()
+                .zip(uc.par_iter().zip(self.ml.par_iter()))
+                .for_each(|(r, (u, m))| *r = m * u);
         }
         if we > 0.0 {
             let explicit = self
@@ -534,9 +550,13 @@ impl NavierStokes {
                     FaceOperator::lumped(&g, 0.0, nu).with_upwind_viscosity(nu / self.cfg.upwind)
                 })
                 .with_convection(&g, [&self.u[0], &self.u[1], &self.u[2]]);
-            for (uc, rc) in self.u.iter().zip(sc.rhs.iter_mut()) {
-                explicit.apply(uc, &mut sc.face);
-                rc.iter_mut().zip(&sc.face).for_each(|(r, a)| *r -= we * a);
+            interleave(&self.u, &mut sc.lanes);
+            sc.applied.resize(nf, [0.0; 3]);
+            explicit.apply(&sc.lanes, &mut sc.applied);
+            for (c, rc) in sc.rhs.iter_mut().enumerate() {
+                rc.par_iter_mut()
+                    .zip(sc.applied.par_iter())
+                    .for_each(|(r, a)| *r -= we * a[c]);
             }
             self.explicit = Some(explicit);
             if let Some(kt) = &self.kt {
@@ -553,14 +573,17 @@ impl NavierStokes {
             }
         }
         // the convecting velocity u*
+        let extrapolated = extrapolate && self.prev.is_some();
         for (c, us) in sc.ustar.iter_mut().enumerate() {
-            us.clear();
+            us.resize(nf, 0.0);
             match (&self.prev, extrapolate) {
                 (Some((up, kp)), true) => {
                     let s = ks / kp;
-                    us.extend(self.u[c].iter().zip(&up[c]).map(|(u, v)| u + s * (u - v)));
+                    us.par_iter_mut()
+                        .zip(self.u[c].par_iter().zip(up[c].par_iter()))
+                        .for_each(|(w, (u, v))| *w = u + s * (u - v));
                 }
-                _ => us.extend_from_slice(&self.u[c]),
+                _ => us.copy_from_slice(&self.u[c]),
             }
         }
         // u before this substep, in the vectors of the one before
@@ -610,18 +633,34 @@ impl NavierStokes {
         }
         sc.rhs
             .iter_mut()
-            .for_each(|r| r.iter_mut().for_each(|v| *v /= wi));
+            .for_each(|r| r.par_iter_mut().for_each(|v| *v /= wi));
         let stiff = if self.kt.is_some() { 2.0 * nu } else { nu };
         self.mg
             .set_operator_split(1.0 / wi, stiff, nu / solve_upwind);
         self.mg
             .set_convection([&sc.ustar[0], &sc.ustar[1], &sc.ustar[2]]);
-        for (uc, rc) in self.u.iter_mut().zip(&sc.rhs) {
-            let rep = self
-                .mg
-                .solve(uc, rc, self.cfg.momentum_rtol, self.cfg.max_cycles);
-            mom.add(&rep);
+        // initial guess: the extrapolated u* on the free faces (a second-order prediction
+        // of u~, so the relative tolerance leaves a smaller error than from u_old)
+        if extrapolated {
+            for (uc, us) in self.u.iter_mut().zip(&sc.ustar) {
+                uc.par_iter_mut()
+                    .zip(us.par_iter().zip(self.mask.par_iter()))
+                    .for_each(|(u, (w, &m))| {
+                        if !m {
+                            *u = *w;
+                        }
+                    });
+            }
         }
+        let [u0, u1, u2] = &mut self.u;
+        let [r0, r1, r2] = &sc.rhs;
+        let reps = self.mg.solve_all(
+            [u0, u1, u2],
+            [r0, r1, r2],
+            self.cfg.momentum_rtol,
+            self.cfg.max_cycles,
+        );
+        mom.add_common(&reps);
         self.scratch = sc;
         self.project(ks, wi, pre);
         self.prev = Some((old, ks));
@@ -648,9 +687,11 @@ impl NavierStokes {
             .pmg
             .solve(q, b, self.cfg.pressure_rtol, self.cfg.max_cycles);
         pre.add(&rep);
-        for c in bq.iter_mut() {
-            c.clear();
+        // B q has component a on the a-faces only: those ranges are zeroed, filled and used
+        let lay = g.layout();
+        for (a, c) in bq.iter_mut().enumerate() {
             c.resize(nf, 0.0);
+            c[lay.off[a]..lay.off[a + 1]].fill(0.0);
         }
         {
             let [b0, b1, b2] = bq;
@@ -663,21 +704,44 @@ impl NavierStokes {
         } else {
             &self.mask
         };
-        for (uc, bc) in self.u.iter_mut().zip(bq.iter()) {
-            for (((u, b), m), &fixed) in uc.iter_mut().zip(bc).zip(&self.ml).zip(fixed_mask) {
-                if !fixed {
-                    *u -= ks * b / m;
-                }
-            }
+        for (a, (uc, bc)) in self.u.iter_mut().zip(bq.iter()).enumerate() {
+            let range = lay.off[a]..lay.off[a + 1];
+            uc[range.clone()]
+                .par_iter_mut()
+                .zip(bc[range.clone()].par_iter())
+                .zip(
+                    self.ml[range.clone()]
+                        .par_iter()
+                        .zip(fixed_mask[range].par_iter()),
+                )
+                .for_each(|((u, b), (m, &fixed))| {
+                    if !fixed {
+                        *u -= ks * b / m;
+                    }
+                });
         }
         // b = B^T u~ / k_s: p += q + 1/2 w_i nu b / |T|
         let visc = 0.5 * wi * self.cfg.nu / g.cell_volume();
         self.p
-            .iter_mut()
-            .zip(q.iter())
-            .zip(b.iter())
-            .for_each(|((p, q), b)| *p += q + visc * b);
+            .par_iter_mut()
+            .zip(q.par_iter().zip(b.par_iter()))
+            .for_each(|(p, (q, b))| *p += q + visc * b);
     }
+}
+
+/// The three components of `u` side by side in `out` (see [`crate::ops::Lanes`]).
+fn interleave(u: &[Vec<f64>; 3], out: &mut Vec<[f64; 3]>) {
+    out.resize(u[0].len(), [0.0; 3]);
+    out.par_iter_mut()
+        .enumerate()
+        .for_each(|(i, o)| *o = [u[0][i], u[1][i], u[2][i]]);
+}
+
+/// `max_T |(B^T u)_T| / |T|` of `u`, with `div` as work vector.
+fn max_divergence_in(grid: &Grid, u: &[Vec<f64>; 3], div: &mut Vec<f64>) -> f64 {
+    div.resize(grid.num_cells(), 0.0);
+    divergence(grid, [&u[0], &u[1], &u[2]], div);
+    div.iter().fold(0.0f64, |m, d| m.max(d.abs())) / grid.cell_volume()
 }
 
 #[cfg(test)]

@@ -31,7 +31,7 @@ use crate::grid::{BoundaryKind, Grid, Layout};
 use rayon::prelude::*;
 
 /// Chunk length of the deterministic reductions.
-const CHUNK: usize = 4096;
+pub(crate) const CHUNK: usize = 4096;
 
 /// `sum_i a_i b_i`, summed in fixed chunks (independent of the thread count).
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -81,6 +81,38 @@ pub(crate) fn others(a: usize) -> [usize; 2] {
     [(a + 1) % 3, (a + 2) % 3]
 }
 
+/// The value at one face of `M` vectors that share an operator (the velocity components of
+/// a momentum solve): `f64` for one vector, `[f64; M]` for `M` vectors stored interleaved,
+/// so that one pass over the operator's tables serves all of them.
+pub trait Lanes<const M: usize>: Copy + Send + Sync {
+    /// The `M` values.
+    fn lanes(self) -> [f64; M];
+    /// From `M` values.
+    fn from_lanes(v: [f64; M]) -> Self;
+}
+
+impl Lanes<1> for f64 {
+    #[inline(always)]
+    fn lanes(self) -> [f64; 1] {
+        [self]
+    }
+    #[inline(always)]
+    fn from_lanes(v: [f64; 1]) -> Self {
+        v[0]
+    }
+}
+
+impl<const M: usize> Lanes<M> for [f64; M] {
+    #[inline(always)]
+    fn lanes(self) -> [f64; M] {
+        self
+    }
+    #[inline(always)]
+    fn from_lanes(v: [f64; M]) -> Self {
+        v
+    }
+}
+
 /// The scalar Q1~ operator `alpha M + nu K (+ N(w))` on one level (matrix-free), with the
 /// consistent or the lumped mass matrix and an optional linearised convection `N(w)` (see
 /// [`Convection`]).
@@ -98,13 +130,38 @@ pub struct FaceOperator {
     /// Linearised convection, if any.
     conv: Option<Convection>,
     /// With convection, per face: the diagonal entry, then per adjacent cell (in the order
-    /// minus, plus of the existing cells) the four fluxes `d` and the four weights `e` of
-    /// the pairs `(b0 lower, b0 upper, b1 lower, b1 upper)`, signed as seen from the
-    /// face (see [`FaceOperator::fill_face_table`]).
-    faces: Vec<[f64; 17]>,
+    /// minus, plus of the existing cells) the five coefficients of [`side_coefficients`]
+    /// (see [`FaceOperator::fill_face_table`]).
+    faces: Vec<[f64; FACE_RECORD]>,
     /// Storage of a convection dropped by [`FaceOperator::recycle`], for the next
     /// [`FaceOperator::with_convection`]; never read as data.
     spare_cells: Vec<[f64; 24]>,
+}
+
+/// Length of a face's record in the convection table: the diagonal and five coefficients
+/// per adjacent cell.
+const FACE_RECORD: usize = 11;
+
+/// The off-diagonal coefficients that one adjacent cell gives the row of a face with
+/// convection, `(c_opp, c_0, c_1, c_2, c_3)` of the opposite face and the four faces of the
+/// other families (`b0` lower/upper, `b1` lower/upper): with the element entries `opp`,
+/// `adj = (A_ab0, A_ab1)` and the pairs' fluxes `d_j` and upwind weights `e_j` (see
+/// [`Convection`]), the row's part
+/// `opp x_opp + sum_j adj x_j + sum_j d_j (2/3 x_j - rest/18) - e_j x_j` with
+/// `rest = x_opp + sum_j x_j`, collected per unknown: `c_opp = opp - D/18` and
+/// `c_j = adj + 2/3 d_j - e_j - D/18`, `D = sum_j d_j`.
+#[inline]
+fn side_coefficients(opp: f64, adj: [f64; 2], d: [f64; 4], e: [f64; 4]) -> [f64; 5] {
+    let r = (d[0] + d[1] + d[2] + d[3]) / 18.0;
+    let c = |j: usize| adj[j / 2] + 2.0 / 3.0 * d[j] - e[j] - r;
+    [opp - r, c(0), c(1), c(2), c(3)]
+}
+
+/// `sum c_i x_i` of a face row's part from one cell ([`side_coefficients`]), in the one
+/// order both the table and the generic row use.
+#[inline(always)]
+fn side_sum(c: &[f64], x_opp: f64, xb: [[f64; 2]; 2]) -> f64 {
+    c[0] * x_opp + c[1] * xb[0][0] + c[2] * xb[0][1] + c[3] * xb[1][0] + c[4] * xb[1][1]
 }
 
 /// Index of the unordered family pair `{a, b}` (`a != b`): `{x,y}` 0, `{x,z}` 1, `{y,z}` 2.
@@ -294,36 +351,28 @@ impl FaceOperator {
         self.spare_cells = old.conv.map_or(old.spare_cells, |c| c.cells);
     }
 
-    /// The per-face convection table (see the field `faces`): the diagonal entry computed
-    /// with exactly the operations of [`FaceOperator::row`] and the signed `d`, `e` of
-    /// the face's pairs, so that the row loops read one contiguous record per face.
-    fn fill_face_table(&self, conv: &Convection, out: &mut Vec<[f64; 17]>) {
+    /// The per-face convection table (see the field `faces`): the diagonal entry and the
+    /// coefficients of [`side_coefficients`], computed with exactly the operations of
+    /// [`FaceOperator::row`], so that the row loops read one contiguous record per face.
+    fn fill_face_table(&self, conv: &Convection, out: &mut Vec<[f64; FACE_RECORD]>) {
         let lay = &self.layout;
-        out.resize(lay.num_faces(), [0.0; 17]);
+        out.resize(lay.num_faces(), [0.0; FACE_RECORD]);
         for a in 0..3 {
             out[lay.off[a]..lay.off[a + 1]]
                 .par_iter_mut()
-                .with_min_len(MIN_TASK / 17)
+                .with_min_len(MIN_TASK / FACE_RECORD)
                 .enumerate()
                 .for_each(|(idx, o)| {
-                    *o = [0.0; 17];
+                    *o = [0.0; FACE_RECORD];
                     let f = lay.face_coords(a, idx);
                     let mut diag = 0.0;
                     let mut slot = 0;
                     for (side, cell) in lay.face_cells(a, f).into_iter().enumerate() {
                         let Some(c) = cell else { continue };
                         diag += self.same[a];
-                        let data = &conv.cells[lay.cell(c)];
-                        let sa = 1 - side;
-                        for (q, b) in others(a).into_iter().enumerate() {
-                            let k = pair_index(a, b);
-                            for sb in 0..2 {
-                                let (d, e) = convection_entry(data, a, b, k, sa, sb);
-                                diag += e - 7.0 / 18.0 * d;
-                                o[1 + 8 * slot + 2 * q + sb] = d;
-                                o[5 + 8 * slot + 2 * q + sb] = e;
-                            }
-                        }
+                        let (coef, dg) = self.side_convection(a, side, &conv.cells[lay.cell(c)]);
+                        diag += dg;
+                        o[1 + 5 * slot..6 + 5 * slot].copy_from_slice(&coef);
                         slot += 1;
                     }
                     o[0] = diag;
@@ -331,16 +380,53 @@ impl FaceOperator {
         }
     }
 
+    /// The coefficients of [`side_coefficients`] of a face of family `a` from its cell on
+    /// `side` (0: the face is the cell's upper face) with convection record `data`, and
+    /// that cell's convection share `sum_j (e_j - 7/18 d_j)` of the diagonal.
+    #[inline]
+    fn side_convection(&self, a: usize, side: usize, data: &[f64; 24]) -> ([f64; 5], f64) {
+        let sa = 1 - side;
+        let [b0, b1] = others(a);
+        let (mut d, mut e) = ([0.0; 4], [0.0; 4]);
+        let mut diag = 0.0;
+        for (q, b) in [b0, b1].into_iter().enumerate() {
+            let k = pair_index(a, b);
+            for sb in 0..2 {
+                let (dj, ej) = convection_entry(data, a, b, k, sa, sb);
+                diag += ej - 7.0 / 18.0 * dj;
+                (d[2 * q + sb], e[2 * q + sb]) = (dj, ej);
+            }
+        }
+        let coef = side_coefficients(self.opp[a], [self.adj[a][b0], self.adj[a][b1]], d, e);
+        (coef, diag)
+    }
+
     /// Whether the operator carries a (non-symmetric) convection part.
     pub fn has_convection(&self) -> bool {
         self.conv.is_some()
     }
 
-    /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`.
+    /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`,
+    /// for each of the `M` vectors of `x`.
     #[inline]
-    pub(crate) fn row(&self, a: usize, f: [usize; 3], x: &[f64]) -> (f64, f64) {
+    fn row<const M: usize, T: Lanes<M>>(
+        &self,
+        a: usize,
+        f: [usize; 3],
+        x: &[T],
+    ) -> (f64, [f64; M]) {
         let conv = self.conv.as_ref();
-        self.row_with(a, f, x, |c| conv.map(|conv| &conv.cells[c]))
+        let mut diag = 0.0;
+        let mut off = [0.0; M];
+        for (m, o) in off.iter_mut().enumerate() {
+            (diag, *o) = self.row_with(
+                a,
+                f,
+                |i| x[i].lanes()[m],
+                |c| conv.map(|conv| &conv.cells[c]),
+            );
+        }
+        (diag, off)
     }
 
     /// Row `f` of family `a` of `A x` for the three vectors `x`, with the convection of
@@ -365,7 +451,7 @@ impl FaceOperator {
         };
         let fi = lay.face(a, f);
         x.map(|xc| {
-            let (diag, off) = self.row_with(a, f, xc, record);
+            let (diag, off) = self.row_with(a, f, |i| xc[i], record);
             diag * xc[fi] + off
         })
     }
@@ -415,7 +501,7 @@ impl FaceOperator {
         &self,
         a: usize,
         f: [usize; 3],
-        x: &[f64],
+        x: impl Fn(usize) -> f64,
         conv: impl Fn(usize) -> Option<R>,
     ) -> (f64, f64) {
         let lay = &self.layout;
@@ -427,29 +513,21 @@ impl FaceOperator {
             // the face is the upper face of the minus cell (side 0), the lower face of the
             // plus cell (side 1); the opposite face is the other one
             let opp = if side == 0 { c } else { lay.upper(a, c) };
-            let x_opp = x[lay.face(a, opp)];
-            off += self.opp[a] * x_opp;
+            let x_opp = x(lay.face(a, opp));
             let [b0, b1] = others(a);
             let xb = [
-                [x[lay.face(b0, c)], x[lay.face(b0, lay.upper(b0, c))]],
-                [x[lay.face(b1, c)], x[lay.face(b1, lay.upper(b1, c))]],
+                [x(lay.face(b0, c)), x(lay.face(b0, lay.upper(b0, c)))],
+                [x(lay.face(b1, c)), x(lay.face(b1, lay.upper(b1, c)))],
             ];
-            off +=
-                self.adj[a][b0] * (xb[0][0] + xb[0][1]) + self.adj[a][b1] * (xb[1][0] + xb[1][1]);
             if let Some(data) = conv(lay.cell(c)) {
-                // see [`Convection`]: sum_j d_ij (2/3 (v_i + v_j) - S_T/18 - v_i)
-                // + e_ij (v_i - v_j); `rest` = S_T - v_i
-                let data: &[f64; 24] = data.borrow();
-                let sa = 1 - side;
-                let rest = x_opp + xb[0][0] + xb[0][1] + xb[1][0] + xb[1][1];
-                for (q, b) in [b0, b1].into_iter().enumerate() {
-                    let k = pair_index(a, b);
-                    for (sb, &vj) in xb[q].iter().enumerate() {
-                        let (d, e) = convection_entry(data, a, b, k, sa, sb);
-                        diag += e - 7.0 / 18.0 * d;
-                        off += d * (2.0 / 3.0 * vj - rest / 18.0) - e * vj;
-                    }
-                }
+                // see [`Convection`] and [`side_coefficients`]
+                let (coef, dg) = self.side_convection(a, side, data.borrow());
+                diag += dg;
+                off += side_sum(&coef, x_opp, xb);
+            } else {
+                off += self.opp[a] * x_opp;
+                off += self.adj[a][b0] * (xb[0][0] + xb[0][1])
+                    + self.adj[a][b1] * (xb[1][0] + xb[1][1]);
             }
         }
         (diag, off)
@@ -457,19 +535,20 @@ impl FaceOperator {
 
     /// For the faces of row `(j, k)` of family `a` (face coordinates `[i, j, k]`) with
     /// `i % 2 == p` (all `i` if `parity` is `None`): `g(i, diag, off)` with the diagonal
-    /// entry and `sum_{j != i} A_ij x_j` of the row, exactly as [`FaceOperator::row`]
-    /// computes them (same operations in the same order). The faces whose neighbours are
-    /// shift-invariant along `i` (no box side, no periodic wrap) run through one
-    /// specialised loop with precomputed index offsets, the others one by one.
+    /// entry and `sum_{j != i} A_ij x_j` of the row for each of the `M` vectors of `x`,
+    /// exactly as [`FaceOperator::row`] computes them (same operations in the same order,
+    /// per vector as for one). The faces whose neighbours are shift-invariant along `i`
+    /// (no box side, no periodic wrap) run through one specialised loop with precomputed
+    /// index offsets, the others one by one.
     #[inline]
-    pub(crate) fn for_row(
+    pub(crate) fn for_row<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
         j: usize,
         k: usize,
-        x: &[f64],
+        x: &[T],
         parity: Option<usize>,
-        mut g: impl FnMut(usize, f64, f64),
+        mut g: impl FnMut(usize, f64, [f64; M]),
     ) {
         let lay = &self.layout;
         let len = lay.fdim[a][0];
@@ -504,26 +583,30 @@ impl FaceOperator {
     /// `i0 = start`, `end = start + 1` is always valid).
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn segment_at(
+    fn segment_at<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
         j: usize,
         k: usize,
-        x: &[f64],
+        x: &[T],
         i0: usize,
         start: usize,
         end: usize,
         step: usize,
-        g: &mut impl FnMut(usize, f64, f64),
+        g: &mut impl FnMut(usize, f64, [f64; M]),
     ) {
         let (sides, count) = self.row_sides(a, [i0, j, k]);
         let fb = self.row_start(a, j, k) + i0;
         let conv = self.conv.is_some();
         match (count, conv) {
-            (1, false) => self.segment::<1, false>([sides[0]], a, x, fb, i0, start, end, step, g),
-            (2, false) => self.segment::<2, false>(sides, a, x, fb, i0, start, end, step, g),
-            (1, true) => self.segment::<1, true>([sides[0]], a, x, fb, i0, start, end, step, g),
-            (2, true) => self.segment::<2, true>(sides, a, x, fb, i0, start, end, step, g),
+            (1, false) => {
+                self.segment::<1, false, M, T>([sides[0]], a, x, fb, i0, start, end, step, g)
+            }
+            (2, false) => self.segment::<2, false, M, T>(sides, a, x, fb, i0, start, end, step, g),
+            (1, true) => {
+                self.segment::<1, true, M, T>([sides[0]], a, x, fb, i0, start, end, step, g)
+            }
+            (2, true) => self.segment::<2, true, M, T>(sides, a, x, fb, i0, start, end, step, g),
             _ => {
                 for i in (start..end).step_by(step) {
                     let (d, o) = self.row(a, [i, j, k], x);
@@ -563,17 +646,17 @@ impl FaceOperator {
     /// [`FaceOperator::row`] (with convection the diagonal comes from the face table).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn segment<const N: usize, const CONV: bool>(
+    fn segment<const N: usize, const CONV: bool, const M: usize, T: Lanes<M>>(
         &self,
         sides: [RowSide; N],
         a: usize,
-        x: &[f64],
+        x: &[T],
         fbase: usize,
         i0: usize,
         start: usize,
         end: usize,
         step: usize,
-        g: &mut impl FnMut(usize, f64, f64),
+        g: &mut impl FnMut(usize, f64, [f64; M]),
     ) {
         let same = self.same[a];
         let opp_c = self.opp[a];
@@ -582,32 +665,28 @@ impl FaceOperator {
         for i in (start..end).step_by(step) {
             let t = i - i0;
             let mut diag = 0.0;
-            let mut off = 0.0;
-            let fc: &[f64; 17] = if CONV {
+            let mut off = [0.0; M];
+            let fc: &[f64; FACE_RECORD] = if CONV {
                 &self.faces[fbase + t]
             } else {
-                &[0.0; 17]
+                &[0.0; FACE_RECORD]
             };
             for (slot, s) in sides.iter().enumerate() {
                 if !CONV {
                     diag += same;
                 }
-                let x_opp = x[s.opp + t];
-                off += opp_c * x_opp;
+                let x_opp = x[s.opp + t].lanes();
                 let xb = [
-                    [x[s.xb[0] + t], x[s.xb[1] + t]],
-                    [x[s.xb[2] + t], x[s.xb[3] + t]],
+                    [x[s.xb[0] + t].lanes(), x[s.xb[1] + t].lanes()],
+                    [x[s.xb[2] + t].lanes(), x[s.xb[3] + t].lanes()],
                 ];
-                off += adj0 * (xb[0][0] + xb[0][1]) + adj1 * (xb[1][0] + xb[1][1]);
-                if CONV {
-                    let rest = x_opp + xb[0][0] + xb[0][1] + xb[1][0] + xb[1][1];
-                    for q in 0..2 {
-                        for sb in 0..2 {
-                            let vj = xb[q][sb];
-                            let d = fc[1 + 8 * slot + 2 * q + sb];
-                            let e = fc[5 + 8 * slot + 2 * q + sb];
-                            off += d * (2.0 / 3.0 * vj - rest / 18.0) - e * vj;
-                        }
+                for m in 0..M {
+                    let xbm = [[xb[0][0][m], xb[0][1][m]], [xb[1][0][m], xb[1][1][m]]];
+                    if CONV {
+                        off[m] += side_sum(&fc[1 + 5 * slot..6 + 5 * slot], x_opp[m], xbm);
+                    } else {
+                        off[m] += opp_c * x_opp[m];
+                        off[m] += adj0 * (xbm[0][0] + xbm[0][1]) + adj1 * (xbm[1][0] + xbm[1][1]);
                     }
                 }
             }
@@ -620,9 +699,9 @@ impl FaceOperator {
 
     /// Calls `g(j, k, row)` for every row (faces `[0.., j, k]`) of family `a` of `out`,
     /// rows in parallel (each output row written by one task).
-    pub(crate) fn par_rows<F>(&self, a: usize, out: &mut [f64], g: F)
+    pub(crate) fn par_rows<T: Send, F>(&self, a: usize, out: &mut [T], g: F)
     where
-        F: Fn(usize, usize, &mut [f64]) + Sync,
+        F: Fn(usize, usize, &mut [T]) + Sync,
     {
         let lay = &self.layout;
         let d = lay.fdim[a];
@@ -639,29 +718,37 @@ impl FaceOperator {
         self.layout.face(a, [0, j, k])
     }
 
-    /// `y = A x`.
-    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+    /// `y = A x` (for each of the `M` vectors of `x`, see [`Lanes`]).
+    pub fn apply<const M: usize, T: Lanes<M>>(&self, x: &[T], y: &mut [T]) {
         for a in 0..3 {
             self.par_rows(a, y, |j, k, row| {
                 let base = self.row_start(a, j, k);
                 self.for_row(a, j, k, x, None, |i, d, off| {
-                    row[i] = d * x[base + i] + off;
+                    let xi = x[base + i].lanes();
+                    row[i] = T::from_lanes(std::array::from_fn(|m| d * xi[m] + off[m]));
                 });
             });
         }
     }
 
     /// `r = b - A x` on the free faces, `0` on the faces with `mask` set.
-    pub fn residual(&self, x: &[f64], b: &[f64], mask: &[bool], r: &mut [f64]) {
+    pub fn residual<const M: usize, T: Lanes<M>>(
+        &self,
+        x: &[T],
+        b: &[T],
+        mask: &[bool],
+        r: &mut [T],
+    ) {
         for a in 0..3 {
             self.par_rows(a, r, |j, k, row| {
                 let base = self.row_start(a, j, k);
                 self.for_row(a, j, k, x, None, |i, d, off| {
                     let fi = base + i;
                     row[i] = if mask[fi] {
-                        0.0
+                        T::from_lanes([0.0; M])
                     } else {
-                        b[fi] - d * x[fi] - off
+                        let (bi, xi) = (b[fi].lanes(), x[fi].lanes());
+                        T::from_lanes(std::array::from_fn(|m| bi[m] - d * xi[m] - off[m]))
                     };
                 });
             });
@@ -672,14 +759,14 @@ impl FaceOperator {
     /// `parity`): the new values `(b_i - off_i) / d_i` of the free faces of the colour are
     /// computed into `tmp` from the old `x` and then copied into `x`. Faces of one colour
     /// share no cell (their rows do not couple), so this is exactly the in-place sweep.
-    pub(crate) fn gauss_seidel_colour(
+    pub(crate) fn gauss_seidel_colour<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
         parity: usize,
-        x: &mut [f64],
-        b: &[f64],
+        x: &mut [T],
+        b: &[T],
         mask: &[bool],
-        tmp: &mut [f64],
+        tmp: &mut [T],
     ) {
         // the rows of the colour, and the parity of `i` inside them (`None`: all faces)
         let sel = |j: usize, k: usize| match a {
@@ -689,13 +776,18 @@ impl FaceOperator {
             _ => None,
         };
         {
-            let xs: &[f64] = x;
+            let xs: &[T] = x;
             self.par_rows(a, tmp, |j, k, row| {
                 let Some(sel) = sel(j, k) else { return };
                 let base = self.row_start(a, j, k);
                 self.for_row(a, j, k, xs, sel, |i, d, off| {
                     let fi = base + i;
-                    row[i] = if mask[fi] { xs[fi] } else { (b[fi] - off) / d };
+                    row[i] = if mask[fi] {
+                        xs[fi]
+                    } else {
+                        let bi = b[fi].lanes();
+                        T::from_lanes(std::array::from_fn(|m| (bi[m] - off[m]) / d))
+                    };
                 });
             });
         }
