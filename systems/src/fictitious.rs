@@ -127,8 +127,8 @@ pub fn velocity_blending(
     particle_faces.clear();
     let blending = coupling.alpha.is_some();
     let mut layer: Vec<(u32, u32)> = Vec::new(); // (face, particle row) to blend
-    // (face, depth r - |x - x_p| as ordered bits, particle row) of every face inside a
-    // particle: a face inside several belongs to the one it lies deepest in
+                                                 // (face, depth r - |x - x_p| as ordered bits, particle row) of every face inside a
+                                                 // particle: a face inside several belongs to the one it lies deepest in
     let mut inside: Vec<(u32, u64, u32)> = Vec::new();
     let dt_f = flow.dt;
     let box_mask = flow.solver.box_mask();
