@@ -776,6 +776,19 @@ fn value_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     Some((lo, hi))
 }
 
+/// A white PNG canvas of `size` at `out` with `title` on top; returns the area under it.
+fn titled_canvas<'a>(
+    out: &'a Path,
+    size: (u32, u32),
+    title: &str,
+) -> Result<DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>, PlotError> {
+    let fail = draw_err(out);
+    let root = BitMapBackend::new(out, size).into_drawing_area();
+    root.fill(&WHITE).map_err(&fail)?;
+    let title_px = (size.1 as f64 * 0.03).clamp(14.0, 22.0);
+    root.titled(title, ("sans-serif", title_px)).map_err(&fail)
+}
+
 fn draw_err<E: std::fmt::Display>(out: &Path) -> impl Fn(E) -> PlotError + '_ {
     move |e| PlotError::Failed(format!("cannot draw {}: {e}", out.display()))
 }
@@ -966,12 +979,7 @@ fn draw_contour(
             out.display()
         ))
     })?;
-    let root = BitMapBackend::new(out, size).into_drawing_area();
-    root.fill(&WHITE).map_err(&fail)?;
-    let title_px = (size.1 as f64 * 0.03).clamp(14.0, 22.0);
-    let body = root
-        .titled(title, ("sans-serif", title_px))
-        .map_err(&fail)?;
+    let body = titled_canvas(out, size, title)?;
     let (bw, bh) = body.dim_in_pixel();
     // Plot area with the physical aspect ratio; the block [labels, plot, colour bar,
     // bar labels] is centred in the image.
@@ -1046,7 +1054,7 @@ fn draw_contour(
     let range = chart.plotting_area().get_pixel_range();
 
     draw_colour_bar(&bar, top, ph, (lo, hi), bar_label, out)?;
-    root.present().map_err(&fail)?;
+    body.present().map_err(&fail)?;
     Ok((range.0, range.1, (lo, hi)))
 }
 
@@ -1495,12 +1503,7 @@ fn draw_particles(
         labels,
     } = view_box;
     let fail = draw_err(out);
-    let root = BitMapBackend::new(out, size).into_drawing_area();
-    root.fill(&WHITE).map_err(&fail)?;
-    let title_px = (size.1 as f64 * 0.03).clamp(14.0, 22.0);
-    let body = root
-        .titled(title, ("sans-serif", title_px))
-        .map_err(&fail)?;
+    let body = titled_canvas(out, size, title)?;
     let (bw, bh) = body.dim_in_pixel();
     // Per panel [labels, plot area, pad] under a caption; the colour bar after the last;
     // the whole block centred. One scale (pixels per length unit) for both directions.
@@ -1590,7 +1593,7 @@ fn draw_particles(
     if let Some((label, range)) = bar {
         draw_colour_bar(&bar_area, top, ph, range, label, out)?;
     }
-    root.present().map_err(&fail)?;
+    body.present().map_err(&fail)?;
     Ok(ranges)
 }
 
