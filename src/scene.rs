@@ -767,7 +767,8 @@ fn known_material(scene: &Scene, field: String, name: &str) -> Result<(), Invali
 }
 
 /// The fluid grid: a box divided into whole cells, a positive viscosity and time step,
-/// consistent periodic sides.
+/// solver tolerances in (0, 1), consistent periodic sides; without a grid, none of the
+/// fields that only a grid uses.
 fn validate_fluid_grid(f: &Fluid) -> Result<(), Invalid> {
     if !f.has_grid() {
         for (name, given) in [
@@ -775,6 +776,8 @@ fn validate_fluid_grid(f: &Fluid) -> Result<(), Invalid> {
             ("min", f.min.is_some()),
             ("max", f.max.is_some()),
             ("dt", f.dt.is_some()),
+            ("momentum_rtol", f.momentum_rtol.is_some()),
+            ("pressure_rtol", f.pressure_rtol.is_some()),
         ] {
             if given {
                 return Err((

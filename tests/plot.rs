@@ -21,71 +21,34 @@ struct Runs {
     four_in_box: PathBuf,
 }
 
-/// Four spheres inside the cavity's box 0.5 x 0.5 x 2, no gravity, no contacts; at step 0
-/// the speeds are 0, 1, 0.5 and 0. Seen along y, sphere 2 (y = 0.1, near) covers part
-/// of sphere 3 (y = 0.4, far).
-const FOUR_SPHERES: &str = r#"
-[simulation]
-dt = 1.0e-5
-end_time = 1.0e-3
-gravity = [0.0, 0.0, 0.0]
-output_interval = 2.0e-4
+/// A scene of glass spheres, each `(radius, position, velocity)`, with DEM steps of 1e-5 s
+/// to `end_time`, gravity `g` along z and a frame every `output_interval`.
+fn glass_spheres(
+    end_time: f64,
+    g: f64,
+    output_interval: f64,
+    spheres: &[(f64, [f64; 3], [f64; 3])],
+) -> String {
+    let mut text = format!(
+        "[simulation]\ndt = 1.0e-5\nend_time = {}\ngravity = [0.0, 0.0, {}]\noutput_interval = {}\n\n",
+        toml_f(end_time),
+        toml_f(g),
+        toml_f(output_interval)
+    );
+    text += &material_toml("glass", 2500.0, 1.0e7, 0.3, "restitution = 0.5");
+    for &(radius, position, velocity) in spheres {
+        text += &sphere_toml("glass", radius, position, velocity, [0.0; 3], false);
+    }
+    text
+}
 
-[[materials]]
-name = "glass"
-density = 2500.0
-youngs_modulus = 1.0e7
-poisson_ratio = 0.3
-restitution = 0.5
-
-[[spheres]]
-material = "glass"
-radius = 0.05
-position = [0.1, 0.25, 0.1]
-
-[[spheres]]
-material = "glass"
-radius = 0.05
-position = [0.4, 0.25, 0.1]
-velocity = [0.0, 0.0, 1.0]
-
-[[spheres]]
-material = "glass"
-radius = 0.08
-position = [0.3, 0.1, 1.5]
-velocity = [0.5, 0.0, 0.0]
-
-[[spheres]]
-material = "glass"
-radius = 0.12
-position = [0.25, 0.4, 1.5]
-"#;
-
-const TWO_SPHERES: &str = r#"
-[simulation]
-dt = 1.0e-5
-end_time = 0.1
-gravity = [0.0, 0.0, -9.81]
-output_interval = 0.01
-
-[[materials]]
-name = "glass"
-density = 2500.0
-youngs_modulus = 1.0e7
-poisson_ratio = 0.3
-restitution = 0.5
-
-[[spheres]]
-material = "glass"
-radius = 0.001
-position = [0.0, 0.0, 0.0]
-
-[[spheres]]
-material = "glass"
-radius = 0.001
-position = [0.01, 0.0, 0.0]
-velocity = [0.0, 0.0, 1.0]
-"#;
+/// `grainflow run SCENE --out OUT` and `extra`, which must succeed (`what` names it).
+fn run_ok(what: &str, scene: &Path, out: &Path, extra: &[&str]) {
+    let mut args = vec!["run", s(scene), "--out", s(out)];
+    args.extend_from_slice(extra);
+    let (code, stdout, stderr) = run_cli(&args);
+    assert_eq!(code, 0, "{what}\nstdout:\n{stdout}\nstderr:\n{stderr}");
+}
 
 fn runs() -> &'static Runs {
     static RUNS: OnceLock<Runs> = OnceLock::new();
@@ -95,41 +58,42 @@ fn runs() -> &'static Runs {
         std::fs::create_dir_all(&root).expect("test directory");
         let fluid = root.join("cavity");
         let cavity = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/cavity-lid-box.toml");
-        let (code, stdout, stderr) = run_cli(&[
-            "run",
-            cavity.to_str().unwrap(),
-            "--out",
-            fluid.to_str().unwrap(),
-            "--steps",
-            "3",
-            "--set",
-            "fluid.level=1",
-        ]);
-        assert_eq!(code, 0, "cavity run\nstdout:\n{stdout}\nstderr:\n{stderr}");
-        let scene = write_scene(&root, "two-spheres.toml", TWO_SPHERES);
+        run_ok(
+            "cavity run",
+            &cavity,
+            &fluid,
+            &["--steps", "3", "--set", "fluid.level=1"],
+        );
+        // Two free-falling spheres, the second starting upwards at 1 m/s.
+        let two_spheres = glass_spheres(
+            0.1,
+            -9.81,
+            0.01,
+            &[
+                (0.001, [0.0, 0.0, 0.0], [0.0; 3]),
+                (0.001, [0.01, 0.0, 0.0], [0.0, 0.0, 1.0]),
+            ],
+        );
         let particles = root.join("two-spheres");
-        let (code, stdout, stderr) = run_cli(&[
-            "run",
-            scene.to_str().unwrap(),
-            "--out",
-            particles.to_str().unwrap(),
-        ]);
-        assert_eq!(
-            code, 0,
-            "particle run\nstdout:\n{stdout}\nstderr:\n{stderr}"
+        let scene = write_scene(&root, "two-spheres.toml", &two_spheres);
+        run_ok("particle run", &scene, &particles, &[]);
+        // Four spheres inside the cavity's box 0.5 x 0.5 x 2, no gravity, no contacts; at
+        // step 0 the speeds are 0, 1, 0.5 and 0. Seen along y, sphere 2 (y = 0.1, near)
+        // covers part of sphere 3 (y = 0.4, far).
+        let four_spheres = glass_spheres(
+            1.0e-3,
+            0.0,
+            2.0e-4,
+            &[
+                (0.05, [0.1, 0.25, 0.1], [0.0; 3]),
+                (0.05, [0.4, 0.25, 0.1], [0.0, 0.0, 1.0]),
+                (0.08, [0.3, 0.1, 1.5], [0.5, 0.0, 0.0]),
+                (0.12, [0.25, 0.4, 1.5], [0.0; 3]),
+            ],
         );
-        let scene = write_scene(&root, "four-spheres.toml", FOUR_SPHERES);
         let four = root.join("four-spheres");
-        let (code, stdout, stderr) = run_cli(&[
-            "run",
-            scene.to_str().unwrap(),
-            "--out",
-            four.to_str().unwrap(),
-        ]);
-        assert_eq!(
-            code, 0,
-            "four spheres\nstdout:\n{stdout}\nstderr:\n{stderr}"
-        );
+        let scene = write_scene(&root, "four-spheres.toml", &four_spheres);
+        run_ok("four spheres", &scene, &four, &[]);
         let four_in_box = root.join("four-in-box");
         std::fs::create_dir_all(&four_in_box).expect("test directory");
         for (dir, name) in [

@@ -42,11 +42,13 @@ fn edited(from: &str, to: &str) -> String {
     GOOD.replacen(from, to, 1)
 }
 
-/// Both commands must reject `scene` with exit code 2 and name the file and `field`.
-fn rejected(dir: &Path, scene: &Path, extra: &[&str], field: &str) {
+/// Both commands must reject `scene` with exit code 2 and name the file and `field`;
+/// returns the message of the last.
+fn rejected(dir: &Path, scene: &Path, extra: &[&str], field: &str) -> String {
     let path = scene.to_str().expect("utf-8 path");
     let out = dir.join("out");
     let out = out.to_str().expect("utf-8 path");
+    let mut message = String::new();
     for command in [
         vec!["check", path],
         vec!["run", path, "--out", out, "--steps", "1"],
@@ -65,7 +67,9 @@ fn rejected(dir: &Path, scene: &Path, extra: &[&str], field: &str) {
             stderr.contains(&format!("`{field}`")),
             "grainflow {args:?}: the message does not name the field `{field}`:\n{stderr}"
         );
+        message = stderr;
     }
+    message
 }
 
 #[test]
@@ -242,6 +246,70 @@ fn bad_wall_and_inflow_values_exit_2_naming_the_field() {
     for (name, text, field) in &cases {
         let path = write_scene(d, name, text);
         rejected(d, &path, &[], field);
+    }
+}
+
+/// `GOOD` in a fluid box of 2 x 2 x 2 coarse cells (a grid, so that the coupling and the
+/// solver tolerances apply), followed by `extra`.
+fn in_fluid(extra: &str) -> String {
+    format!(
+        "{GOOD}\n[fluid]\ndensity = 1000.0\nviscosity = 1.0e-6\nmin = [-0.05, -0.05, 0.0]\n\
+         max = [0.05, 0.05, 0.1]\ncells = [2, 2, 2]\ndt = 1.0e-3\n{extra}\n"
+    )
+}
+
+/// `coupling.update` takes "prescribed" or "fluid_momentum"; `fluid.momentum_rtol` and
+/// `fluid.pressure_rtol` a number in (0, 1), and only with a grid.
+#[test]
+fn bad_coupling_update_and_solver_tolerances_exit_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    // The good values are accepted: the cases fail for the edited value alone.
+    for extra in [
+        "momentum_rtol = 1.0e-4\npressure_rtol = 1.0e-6\n\n[coupling]\nupdate = \"prescribed\"",
+        "[coupling]\nupdate = \"fluid_momentum\"",
+    ] {
+        let path = write_scene(d, "base.toml", &in_fluid(extra));
+        let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 0, "{extra}\n{stderr}");
+    }
+    let update = |name: &str| in_fluid(&format!("[coupling]\nupdate = \"{name}\""));
+    let message = rejected(
+        d,
+        &write_scene(d, "unknown_update.toml", &update("implicit")),
+        &[],
+        "coupling.update",
+    );
+    assert!(
+        message.contains("implicit")
+            && message.contains("fluid_momentum")
+            && message.contains("prescribed"),
+        "the message does not name the value and the accepted names:\n{message}"
+    );
+    for (name, value) in [
+        ("zero", "0.0"),
+        ("negative", "-1.0e-3"),
+        ("one", "1.0"),
+        ("above_one", "2.0"),
+        ("nan", "nan"),
+        ("infinite", "inf"),
+    ] {
+        for field in ["momentum_rtol", "pressure_rtol"] {
+            let file = format!("{field}_{name}.toml");
+            let path = write_scene(d, &file, &in_fluid(&format!("{field} = {value}")));
+            let message = rejected(d, &path, &[], &format!("fluid.{field}"));
+            assert!(
+                message.contains("expected a number in (0, 1)"),
+                "{file}: the message does not say what was expected:\n{message}"
+            );
+        }
+    }
+    // Without a grid a tolerance would be silently ignored.
+    for field in ["momentum_rtol", "pressure_rtol"] {
+        let text = format!("{GOOD}\n[fluid]\ndensity = 1000.0\n{field} = 1.0e-4\n");
+        let path = write_scene(d, &format!("{field}_no_grid.toml"), &text);
+        let message = rejected(d, &path, &[], &format!("fluid.{field}"));
+        assert!(message.contains("without a grid"), "{message}");
     }
 }
 
