@@ -380,7 +380,28 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
     let adhesive_reach = laws
         .as_ref()
         .map_or(0.0, |l| largest_critical_separation(l, &pairs, r_max));
+    let lubrication = flow
+        .as_ref()
+        .and_then(|flow| lubrication_settings(scene, flow.solver.grid(), &particles));
+    if let Some(l) = lubrication.filter(|l| l.roughness >= l.range) {
+        return Err(err(
+            "coupling.lubrication_roughness".into(),
+            format!(
+                "expected a gap below the lubrication range {:.3e} m (the fluid cell size unless `lubrication_range` is given), got {}",
+                l.range, l.roughness
+            ),
+        ));
+    }
+    let lubrication_reach = lubrication.map_or(0.0, |l| l.range);
     let skin = match scene.neighbour.skin {
+        Some(skin) if skin <= lubrication_reach => {
+            return Err(err(
+                "neighbour.skin".into(),
+                format!(
+                    "expected a skin > {lubrication_reach:.3e} m, the coupling's lubrication range (every pair it acts on must be in the Verlet list; the list is rebuilt when a particle may have moved half the difference), got {skin}"
+                ),
+            ))
+        }
         Some(skin) if skin <= adhesive_reach => {
             return Err(err(
                 "neighbour.skin".into(),
@@ -390,7 +411,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             ))
         }
         Some(skin) => skin,
-        None => (0.2 * r_max.max(f64::MIN_POSITIVE)).max(2.0 * adhesive_reach),
+        None => (0.2 * r_max.max(f64::MIN_POSITIVE)).max(2.0 * adhesive_reach) + lubrication_reach,
     };
     let mut world = World::new();
     world.insert_resource(SimClock::new(scene.simulation.dt));
@@ -401,6 +422,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
     world.insert_resource(body);
     world.insert_resource(NeighbourSettings {
         skin,
+        reach: lubrication_reach,
         sort_every: scene.neighbour.sort_every.unwrap_or(1),
     });
     world.insert_resource(VerletList {
@@ -462,6 +484,9 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         if let Some((n_s, _)) = scene.subcycling {
             flow.solver.set_project_markers(true);
             insert_coupling(&mut world, scene, n_s, particles.len());
+            if let Some(lubrication) = lubrication {
+                world.insert_resource(lubrication);
+            }
         }
         world.insert_resource(flow);
     }
@@ -553,6 +578,32 @@ fn insert_coupling(world: &mut World, scene: &Scene, n_s: u32, rows: usize) {
     if !world.contains_resource::<Rotation>() {
         insert_rotation(world, rows);
     }
+}
+
+/// The lubrication correction of a coupled scene that asks for it: the fluid's dynamic
+/// viscosity, the range (default: the smallest side of a fluid cell) and the roughness
+/// (default: 1 % of the smallest particle radius, at most half the range).
+fn lubrication_settings(
+    scene: &Scene,
+    grid: &grainflow_fluid::Grid,
+    particles: &Particles,
+) -> Option<Lubrication> {
+    let spec = scene.coupling.as_ref().filter(|c| c.lubrication)?;
+    let fluid = scene.fluid.as_ref()?;
+    let h = grid.h();
+    let r_min = particles
+        .radius
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let range = spec.lubrication_range.unwrap_or(h[0].min(h[1]).min(h[2]));
+    Some(Lubrication {
+        viscosity: fluid.density * fluid.viscosity?,
+        range,
+        roughness: spec
+            .lubrication_roughness
+            .unwrap_or((0.01 * r_min).min(0.5 * range)),
+    })
 }
 
 /// Rotational state for `rows` particles, with the integrator's extra columns.

@@ -169,6 +169,28 @@ fn check(args: CheckArgs) -> ExitCode {
                             dt_f / tau
                         );
                     }
+                    if let Some(lub) = sim
+                        .world
+                        .get_resource::<grainflow_components::Lubrication>()
+                    {
+                        // the smallest sphere at the roughness gap damps the fastest
+                        let rate = (0..p.len())
+                            .map(|i| {
+                                grainflow_systems::lubrication::largest_damping_rate(
+                                    lub,
+                                    p.radius[i],
+                                    p.mass(i),
+                                )
+                            })
+                            .fold(0.0, f64::max);
+                        let _ = writeln!(
+                            out,
+                            "  lubrication below a gap of {:.3e} m (roughness {:.3e} m): damping rate up to 6 pi mu R*^2 / (s_r m*) = {rate:.3e} /s, DEM dt x rate = {:.3} (explicit: stable below 2)",
+                            lub.range,
+                            lub.roughness,
+                            scene.simulation.dt * rate
+                        );
+                    }
                 }
             }
             Ok(None) => {

@@ -182,6 +182,17 @@ pub struct CouplingSpec {
     /// Points of the Lebedev-Laikov rule of the surface force points.
     #[serde(default = "default_force_points")]
     pub points: usize,
+    /// The lubrication correction between particles closer than `lubrication_range`
+    /// (`grainflow_systems::lubrication`).
+    #[serde(default)]
+    pub lubrication: bool,
+    /// Surface gap below which the lubrication correction acts (default: the fluid cell
+    /// size, the smallest of its three sides).
+    #[serde(default)]
+    pub lubrication_range: Option<f64>,
+    /// Smallest gap of the lubrication correction (default: 1 % of the smallest radius).
+    #[serde(default)]
+    pub lubrication_roughness: Option<f64>,
 }
 
 impl Default for CouplingSpec {
@@ -191,6 +202,9 @@ impl Default for CouplingSpec {
             force: ForceMethodName::default(),
             update: ParticleUpdateName::default(),
             points: default_force_points(),
+            lubrication: false,
+            lubrication_range: None,
+            lubrication_roughness: None,
         }
     }
 }
@@ -978,6 +992,27 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 "coupling.alpha".into(),
                 format!("expected a number >= 0, got {alpha}"),
             ));
+        }
+        for (field, value) in [
+            ("coupling.lubrication_range", c.lubrication_range),
+            ("coupling.lubrication_roughness", c.lubrication_roughness),
+        ] {
+            let Some(v) = value else { continue };
+            if !c.lubrication {
+                return Err((
+                    field.into(),
+                    "has no effect without `lubrication = true`".into(),
+                ));
+            }
+            positive(field.into(), v)?;
+        }
+        if let (Some(range), Some(rough)) = (c.lubrication_range, c.lubrication_roughness) {
+            if rough >= range {
+                return Err((
+                    "coupling.lubrication_roughness".into(),
+                    format!("expected a gap below lubrication_range = {range}, got {rough}"),
+                ));
+            }
         }
         if grainflow_systems::lebedev::rule_degree(c.points).is_none() {
             let counts: Vec<usize> = grainflow_systems::lebedev::RULES

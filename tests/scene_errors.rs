@@ -436,3 +436,52 @@ fn good_frictionless_scene_checks_and_shows_its_schedule() {
     assert!(verlet.iter().any(|n| n == "verlet_predict"), "{verlet:?}");
     assert!(!verlet.iter().any(|n| n.contains("gear")), "{verlet:?}");
 }
+
+/// The lubrication fields: `lubrication_range` and `lubrication_roughness` positive, only
+/// with `lubrication = true`, the roughness below the range (given or the cell size), and
+/// an explicit Verlet skin larger than the range.
+#[test]
+fn bad_lubrication_settings_exit_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let good = in_fluid("[coupling]\nlubrication = true\nlubrication_range = 0.02");
+    let path = write_scene(d, "lub.toml", &good);
+    let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    for (file, extra, field, expected) in [
+        (
+            "range_alone.toml",
+            "[coupling]\nlubrication_range = 0.02",
+            "coupling.lubrication_range",
+            "without `lubrication = true`",
+        ),
+        (
+            "range_negative.toml",
+            "[coupling]\nlubrication = true\nlubrication_range = -0.02",
+            "coupling.lubrication_range",
+            "expected a finite number > 0",
+        ),
+        (
+            "rough_above_range.toml",
+            "[coupling]\nlubrication = true\nlubrication_range = 0.02\nlubrication_roughness = 0.03",
+            "coupling.lubrication_roughness",
+            "expected a gap below",
+        ),
+        (
+            "rough_above_cell.toml",
+            "[coupling]\nlubrication = true\nlubrication_roughness = 0.5",
+            "coupling.lubrication_roughness",
+            "expected a gap below the lubrication range",
+        ),
+        (
+            "skin_below_range.toml",
+            "[coupling]\nlubrication = true\nlubrication_range = 0.02\n\n[neighbour]\nskin = 0.01",
+            "neighbour.skin",
+            "lubrication range",
+        ),
+    ] {
+        let path = write_scene(d, file, &in_fluid(extra));
+        let message = rejected(d, &path, &[], field);
+        assert!(message.contains(expected), "{file}: {message}");
+    }
+}

@@ -13,6 +13,7 @@ pub mod fluid;
 pub mod health;
 pub mod inflow;
 pub mod integrator;
+pub mod lubrication;
 pub mod material;
 pub mod neighbour;
 pub mod particles;
@@ -31,6 +32,7 @@ pub use fluid::{FluidFlow, FluidStats};
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, PredictAhead, VerletState};
+pub use lubrication::Lubrication;
 pub use material::{BodyAcceleration, DampingLaw, Material, Materials, PairParams};
 pub use neighbour::{
     ContactHistory, NeighbourSettings, PairList, Reorder, ScatterPlan, StepMotion, VerletList,

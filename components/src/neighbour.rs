@@ -2,11 +2,15 @@ use bevy_ecs::prelude::Resource;
 
 use crate::Columns;
 
-/// Verlet-list settings: the skin added to the contact distance, and the particle
-/// re-sorting policy.
+/// Verlet-list settings: the skin added to the contact distance, the reach within which
+/// pairs must always be listed, and the particle re-sorting policy.
 #[derive(Resource, Debug, Clone, Copy)]
 pub struct NeighbourSettings {
     pub skin: f64,
+    /// Pairs with a surface gap below `reach` (< `skin`) are always listed: the list is
+    /// rebuilt when a particle may have moved `(skin - reach) / 2`, not `skin / 2`. Zero
+    /// for contacts only; the lubrication range when the coupling's lubrication acts.
+    pub reach: f64,
     /// Re-sort particles in cell order at every `sort_every`-th rebuild (0: never).
     pub sort_every: u32,
 }

@@ -19,6 +19,7 @@ pub mod hydrodynamic;
 pub mod inflow;
 pub mod jkr;
 pub mod lebedev;
+pub mod lubrication;
 pub mod monitor;
 pub mod neighbour_list;
 pub mod real;

@@ -2,7 +2,9 @@
 //! (Verlet 1967), as on the seed's "Contact detection" slide.
 //!
 //! The list is rebuilt when the largest displacement since the last build exceeds half
-//! the skin: then no pair can have closed the gap `r_i + r_j + skin` unseen. At rebuilds
+//! the skin: then no pair can have closed the gap `r_i + r_j + skin` unseen (half of
+//! `skin - reach` with a [`NeighbourSettings::reach`]: no pair can have come within
+//! `r_i + r_j + reach` unseen). At rebuilds
 //! the particles are re-sorted in cell order (counting sort on the cell index), so that
 //! neighbours are close in memory.
 use bevy_ecs::prelude::*;
@@ -28,9 +30,10 @@ pub fn verlet_list(
     let _span = tracing::info_span!("verlet_list").entered();
     reorder.perm = None;
     let n = particles.len();
-    let half_skin = 0.5 * settings.skin;
+    // pairs closer than the reach stay listed while no particle has moved (skin - reach)/2
+    let half_skin = 0.5 * (settings.skin - settings.reach);
     // The integrator's bound on this step's motion spares the exact check (a pass over
-    // all positions) until the bound itself reaches skin/2.
+    // all positions) until the bound itself reaches that.
     let step_motion = motion
         .max_component
         .take()

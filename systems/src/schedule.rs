@@ -12,7 +12,9 @@
 //! 5. `Reorder`: every other per-particle block follows the re-sort
 //! 6. `Contact`: contact forces: Hertz normal + damping between particles and with walls
 //!    (`hertz_contact`), or, when some material pair has friction, rolling resistance or
-//!    adhesion, the same plus those models with per-contact history (`granular_contact`)
+//!    adhesion, the same plus those models with per-contact history (`granular_contact`);
+//!    in coupled scenes that ask for it, the lubrication correction of pairs closer than
+//!    about one fluid cell (`lubrication`)
 //! 7. `VelocityBlending`: when a fluid step is due, the particles' cell markers, their
 //!    rigid-body velocity on the faces inside them and the smooth transition around them
 //!    (`velocity_blending`)
@@ -42,8 +44,8 @@ use crate::fluid::has_fluid;
 use crate::granular::has_contact_laws;
 use crate::rotation::has_rotation;
 use crate::{
-    clamp, fictitious, fluid, gear, granular, hertz, hydrodynamic, inflow, monitor, neighbour_list,
-    rotation, rows, verlet, walls,
+    clamp, fictitious, fluid, gear, granular, hertz, hydrodynamic, inflow, lubrication, monitor,
+    neighbour_list, rotation, rows, verlet, walls,
 };
 use grainflow_components::{Clamped, HydroForces, Rotation};
 
@@ -336,6 +338,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: has_contact_laws,
         add: |s, set| {
             s.add_systems(granular::granular_contact.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "lubrication",
+        set: StepSet::Contact,
+        phase: Phase::Both,
+        wanted: lubrication::has_lubrication,
+        add: |s, set| {
+            s.add_systems(lubrication::lubrication.in_set(set));
         },
     },
     SystemEntry {
