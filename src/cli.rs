@@ -5,6 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
+use grainflow_systems::schedule::{DEM_FIRST_HALF, FLUID_STEP};
+use grainflow_systems::CoupledStep;
+
 use crate::run::{default_out_dir, Simulation};
 use crate::scene::{self, SceneError};
 
@@ -79,6 +82,45 @@ fn emit(text: &str) {
     let _ = std::io::stdout().write_all(text.as_bytes());
 }
 
+/// The `grainflow check` block of the time step: the systems by set, in order; with a
+/// flow, grouped into the DEM substep's two halves and the fluid step between them.
+fn schedule_report(step: &CoupledStep) -> String {
+    let mut out = String::new();
+    let with_flow = step.systems.iter().any(|(set, _)| FLUID_STEP.contains(set));
+    let n_s = step.substeps;
+    let _ = writeln!(
+        out,
+        "{}",
+        match (with_flow, n_s > 1) {
+            (false, _) => "schedule (one step, in order):".to_string(),
+            (true, false) => "schedule (one step, in order; the fluid step runs when the step reaches the next fluid time):".to_string(),
+            (true, true) => format!("schedule (one fluid step: n_s = {n_s} DEM steps, the first with the fluid step and its coupling between its two halves; in order):"),
+        }
+    );
+    let (mut last_set, mut last_part) = (None, None);
+    for (set, name) in &step.systems {
+        if with_flow {
+            let part = if DEM_FIRST_HALF.contains(set) {
+                "every step, first half"
+            } else if FLUID_STEP.contains(set) {
+                "fluid step and coupling, in the first step of each fluid step"
+            } else {
+                "every step, second half"
+            };
+            if last_part != Some(part) {
+                let _ = writeln!(out, "  [{part}]");
+                last_part = Some(part);
+            }
+        }
+        if last_set != Some(*set) {
+            let _ = writeln!(out, "  {set:?}");
+            last_set = Some(*set);
+        }
+        let _ = writeln!(out, "    {name}");
+    }
+    out
+}
+
 fn check(args: CheckArgs) -> ExitCode {
     let mut out = String::new();
     let scene = match scene::load(&args.scene, &args.set) {
@@ -128,20 +170,15 @@ fn check(args: CheckArgs) -> ExitCode {
             "           the corrector also predicts the next step in its pass (not in the last step, nor in steps whose end is written)"
         );
     }
-    let _ = writeln!(out, "schedule (one step, in order):");
-    let mut last = None;
-    for (set, name) in &sim.step_systems {
-        if last != Some(*set) {
-            let _ = writeln!(out, "  {set:?}");
-            last = Some(*set);
-        }
-        let _ = writeln!(out, "    {name}");
-    }
+    out.push_str(&schedule_report(&sim.coupled_step));
     if let Some(f) = &scene.fluid {
         match crate::fluid::fluid_grid(f, &args.scene) {
             Ok(Some(grid)) => {
                 out.push_str(&crate::fluid::check_report(f, &grid));
-                if let Some(flow) = sim.world.get_resource::<grainflow_components::FluidFlow>() {
+                if let Some(flow) = sim
+                    .world
+                    .get_resource::<grainflow_systems::fluid::FluidFlow>()
+                {
                     let _ = writeln!(
                         out,
                         "  runaway bound: a flow velocity above {} x {:.3e} stops the run (the scene's velocity scale: boundary speeds, sqrt(|f| L) of the body force, sqrt(|g| L), nu / L; or that multiple of the fastest particle surface)",

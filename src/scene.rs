@@ -656,7 +656,7 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, Sce
     {
         if scene.has_particles() {
             let dt_d = scene.simulation.dt;
-            let n_s = grainflow_systems::fluid::subcycles(dt_f, dt_d);
+            let n_s = grainflow_systems::coupling::subcycles(dt_f, dt_d);
             scene.subcycling = Some((n_s, dt_d));
             scene.simulation.dt = dt_f / n_s as f64;
         }
@@ -976,8 +976,8 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 format!("expected a number >= 0, got {alpha}"),
             ));
         }
-        if grainflow_systems::lebedev::rule_degree(c.points).is_none() {
-            let counts: Vec<usize> = grainflow_systems::lebedev::RULES
+        if grainflow_systems::coupling::lebedev::rule_degree(c.points).is_none() {
+            let counts: Vec<usize> = grainflow_systems::coupling::lebedev::RULES
                 .iter()
                 .map(|r| r.0)
                 .collect();
