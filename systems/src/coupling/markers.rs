@@ -137,8 +137,8 @@ pub fn cell_markers(
         let (a, f) = lay.face_of(idx as usize);
         let x = grid.face_centre(a, f);
         let v = rigid_velocity(&particles, i as usize, x);
-        for d in 0..3 {
-            flow.solver.u[d][idx as usize] = v[d];
+        for (u, v) in flow.solver.u.iter_mut().zip(v) {
+            u[idx as usize] = v;
         }
         if holds_faces(&coupling, clamped.as_deref(), i as usize) {
             rigid_faces.push(idx);

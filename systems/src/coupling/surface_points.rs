@@ -80,6 +80,7 @@ fn fluid_stress(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use grainflow_components::ForceMethod;
     use grainflow_fluid::BoundaryKind;
 
     /// Stokes flow past a fixed sphere of radius `a` at the origin in a uniform stream
