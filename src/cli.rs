@@ -83,29 +83,41 @@ fn emit(text: &str) {
 }
 
 /// The `grainflow check` block of the time step: the systems by set, in order; with a
-/// flow, grouped into the DEM substep's two halves and the fluid step between them.
-fn schedule_report(step: &CoupledStep) -> String {
+/// flow, in the three parts of the coupled step: the first half of every step, the fluid
+/// step (with its coupling when the scene has particles) and the second half.
+fn schedule_report(step: &CoupledStep, coupled: bool) -> String {
     let mut out = String::new();
     let with_flow = step.systems.iter().any(|(set, _)| FLUID_STEP.contains(set));
     let n_s = step.substeps;
-    let _ = writeln!(
-        out,
-        "{}",
-        match (with_flow, n_s > 1) {
-            (false, _) => "schedule (one step, in order):".to_string(),
-            (true, false) => "schedule (one step, in order; the fluid step runs when the step reaches the next fluid time):".to_string(),
-            (true, true) => format!("schedule (one fluid step: n_s = {n_s} DEM steps, the first with the fluid step and its coupling between its two halves; in order):"),
-        }
-    );
+    let (header, parts) = match (with_flow, coupled) {
+        (false, _) => ("schedule (one step, in order):".to_string(), None),
+        (true, false) => (
+            "schedule (one step, in order; the fluid step runs in the steps that reach the next fluid time):".to_string(),
+            Some([
+                "every step, first half",
+                "fluid step, in the steps that reach the next fluid time",
+                "every step, second half",
+            ]),
+        ),
+        (true, true) => (
+            format!("schedule (one fluid step, in order: the fluid step and its coupling, then n_s = {n_s} DEM substeps; the first substep runs the fluid step between its two halves):"),
+            Some([
+                "every DEM substep, first half",
+                "fluid step and its coupling, in the first DEM substep of each fluid step",
+                "every DEM substep, second half",
+            ]),
+        ),
+    };
+    let _ = writeln!(out, "{header}");
     let (mut last_set, mut last_part) = (None, None);
     for (set, name) in &step.systems {
-        if with_flow {
+        if let Some([first, fluid, second]) = parts {
             let part = if DEM_FIRST_HALF.contains(set) {
-                "every step, first half"
+                first
             } else if FLUID_STEP.contains(set) {
-                "fluid step and coupling, in the first step of each fluid step"
+                fluid
             } else {
-                "every step, second half"
+                second
             };
             if last_part != Some(part) {
                 let _ = writeln!(out, "  [{part}]");
@@ -170,7 +182,11 @@ fn check(args: CheckArgs) -> ExitCode {
             "           the corrector also predicts the next step in its pass (not in the last step, nor in steps whose end is written)"
         );
     }
-    out.push_str(&schedule_report(&sim.coupled_step));
+    out.push_str(&schedule_report(
+        &sim.coupled_step,
+        sim.world
+            .contains_resource::<grainflow_components::Coupling>(),
+    ));
     if let Some(f) = &scene.fluid {
         match crate::fluid::fluid_grid(f, &args.scene) {
             Ok(Some(grid)) => {

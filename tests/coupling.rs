@@ -633,3 +633,38 @@ fn particles_outside_the_fluid_grid_are_refused() {
         "{failure}"
     );
 }
+
+/// `grainflow check` shows the coupled step of the seed's sedimentation case: one fluid
+/// step with its coupling, then n_s = 11 DEM substeps; the fluid step and its coupling
+/// between the two halves of the first substep.
+#[test]
+fn check_shows_the_coupled_step() {
+    let case =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sedimentation-single.toml");
+    let (code, stdout, stderr) = common::run_cli(&["check", case.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout
+        .lines()
+        .skip_while(|l| !l.starts_with("schedule"))
+        .take_while(|l| l.starts_with("schedule") || l.starts_with("  "))
+        .collect();
+    assert!(lines[0].contains("n_s = 11 DEM substeps"), "{stdout}");
+    let at = |text: &str| {
+        lines
+            .iter()
+            .position(|l| l.trim() == text)
+            .unwrap_or_else(|| panic!("no `{text}` in\n{stdout}"))
+    };
+    let order = [
+        at("[every DEM substep, first half]"),
+        at("hertz_contact"),
+        at("[fluid step and its coupling, in the first DEM substep of each fluid step]"),
+        at("cell_markers"),
+        at("multigrid_fluid"),
+        at("hydrodynamic_sampling"),
+        at("[every DEM substep, second half]"),
+        at("held_hydrodynamic_force"),
+        at("gear_correct"),
+    ];
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "{order:?}\n{stdout}");
+}
