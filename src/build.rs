@@ -4,7 +4,7 @@ use std::path::Path;
 
 use bevy_ecs::prelude::World;
 use grainflow_components::*;
-use grainflow_systems::fictitious::outside_the_fluid;
+use grainflow_systems::coupling::markers::outside_the_fluid;
 use grainflow_systems::inflow::next_f64;
 use grainflow_systems::walls::{wall_contains, wall_distance};
 
@@ -568,7 +568,8 @@ fn insert_coupling(world: &mut World, scene: &Scene, n_s: u32, rows: usize) {
             ParticleUpdateName::FluidMomentum => ParticleUpdate::FluidMomentum,
             ParticleUpdateName::Prescribed => ParticleUpdate::Prescribed,
         },
-        rule: grainflow_systems::lebedev::lebedev_rule(spec.points).expect("validated rule"),
+        rule: grainflow_systems::coupling::lebedev::lebedev_rule(spec.points)
+            .expect("validated rule"),
         subcycles: n_s,
     });
     world.insert_resource(CellMarkers::default());

@@ -5,6 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
+use grainflow_systems::schedule::{DEM_FIRST_HALF, FLUID_STEP};
+use grainflow_systems::CoupledStep;
+
 use crate::run::{default_out_dir, Simulation};
 use crate::scene::{self, SceneError};
 
@@ -79,6 +82,57 @@ fn emit(text: &str) {
     let _ = std::io::stdout().write_all(text.as_bytes());
 }
 
+/// The `grainflow check` block of the time step: the systems by set, in order; with a
+/// flow, in the three parts of the coupled step: the first half of every step, the fluid
+/// step (with its coupling when the scene has particles) and the second half.
+fn schedule_report(step: &CoupledStep, coupled: bool) -> String {
+    let mut out = String::new();
+    let with_flow = step.systems.iter().any(|(set, _)| FLUID_STEP.contains(set));
+    let n_s = step.substeps;
+    let (header, parts) = match (with_flow, coupled) {
+        (false, _) => ("schedule (one step, in order):".to_string(), None),
+        (true, false) => (
+            "schedule (one step, in order; the fluid step runs in the steps that reach the next fluid time):".to_string(),
+            Some([
+                "every step, first half",
+                "fluid step, in the steps that reach the next fluid time",
+                "every step, second half",
+            ]),
+        ),
+        (true, true) => (
+            format!("schedule (one fluid step, in order: the fluid step and its coupling, then n_s = {n_s} DEM substeps; the first substep runs the fluid step between its two halves):"),
+            Some([
+                "every DEM substep, first half",
+                "fluid step and its coupling, in the first DEM substep of each fluid step",
+                "every DEM substep, second half",
+            ]),
+        ),
+    };
+    let _ = writeln!(out, "{header}");
+    let (mut last_set, mut last_part) = (None, None);
+    for (set, name) in &step.systems {
+        if let Some([first, fluid, second]) = parts {
+            let part = if DEM_FIRST_HALF.contains(set) {
+                first
+            } else if FLUID_STEP.contains(set) {
+                fluid
+            } else {
+                second
+            };
+            if last_part != Some(part) {
+                let _ = writeln!(out, "  [{part}]");
+                last_part = Some(part);
+            }
+        }
+        if last_set != Some(*set) {
+            let _ = writeln!(out, "  {set:?}");
+            last_set = Some(*set);
+        }
+        let _ = writeln!(out, "    {name}");
+    }
+    out
+}
+
 fn check(args: CheckArgs) -> ExitCode {
     let mut out = String::new();
     let scene = match scene::load(&args.scene, &args.set) {
@@ -128,20 +182,19 @@ fn check(args: CheckArgs) -> ExitCode {
             "           the corrector also predicts the next step in its pass (not in the last step, nor in steps whose end is written)"
         );
     }
-    let _ = writeln!(out, "schedule (one step, in order):");
-    let mut last = None;
-    for (set, name) in &sim.step_systems {
-        if last != Some(*set) {
-            let _ = writeln!(out, "  {set:?}");
-            last = Some(*set);
-        }
-        let _ = writeln!(out, "    {name}");
-    }
+    out.push_str(&schedule_report(
+        &sim.coupled_step,
+        sim.world
+            .contains_resource::<grainflow_components::Coupling>(),
+    ));
     if let Some(f) = &scene.fluid {
         match crate::fluid::fluid_grid(f, &args.scene) {
             Ok(Some(grid)) => {
                 out.push_str(&crate::fluid::check_report(f, &grid));
-                if let Some(flow) = sim.world.get_resource::<grainflow_components::FluidFlow>() {
+                if let Some(flow) = sim
+                    .world
+                    .get_resource::<grainflow_systems::fluid::FluidFlow>()
+                {
                     let _ = writeln!(
                         out,
                         "  runaway bound: a flow velocity above {} x {:.3e} stops the run (the scene's velocity scale: boundary speeds, sqrt(|f| L) of the body force, sqrt(|g| L), nu / L; or that multiple of the fastest particle surface)",
@@ -176,7 +229,7 @@ fn check(args: CheckArgs) -> ExitCode {
                         // the smallest sphere at the roughness gap damps the fastest
                         let rate = (0..p.len())
                             .map(|i| {
-                                grainflow_systems::lubrication::largest_damping_rate(
+                                grainflow_systems::coupling::lubrication::largest_damping_rate(
                                     lub,
                                     p.radius[i],
                                     p.mass(i),

@@ -3,10 +3,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use grainflow_components::{FluidFlow, FluidStats};
 use grainflow_fluid::{
     Boundaries, BoundaryKind, Grid, GridError, NavierStokes, NsConfig, TimeScheme, ViscousForm,
 };
+
+use grainflow_systems::fluid::{FluidFlow, FluidStats};
 
 use crate::scene::{Fluid, FluidBoundary, FluidScheme, FluidViscous, InflowProfile, SceneError};
 

@@ -16,11 +16,11 @@
 //!   `tumble_time` (first time after the kiss at which the trailing sphere passes the
 //!   leading one along gravity).
 use bevy_ecs::prelude::*;
-use grainflow_components::{
-    Clamped, Coupling, FluidFlow, HydroForces, Particles, RunHealth, SimClock,
-};
+use grainflow_components::{Clamped, Coupling, HydroForces, Particles, RunHealth, SimClock};
 use grainflow_fluid::sample::velocity_at;
-use grainflow_systems::hydrodynamic::{surface_point_force, volume_integral_force};
+use grainflow_systems::coupling::surface_points::surface_point_force;
+use grainflow_systems::coupling::volume_integral::volume_integral_force;
+use grainflow_systems::fluid::FluidFlow;
 use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;

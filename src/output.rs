@@ -7,7 +7,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use bevy_ecs::prelude::*;
-use grainflow_components::{FluidFlow, Particles, RunHealth, SimClock};
+use grainflow_components::{Particles, RunHealth, SimClock};
+use grainflow_systems::fluid::FluidFlow;
 
 /// One written frame.
 #[derive(Debug, Clone)]

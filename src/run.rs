@@ -6,12 +6,13 @@ use std::time::Instant;
 
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Clamped, ContactHistory, FluidFlow, GearState, Materials, Particles, PerParticle, PredictAhead,
-    Rotation, RunHealth, SimClock, VerletList, VerletState, WallHistory,
+    Clamped, ContactHistory, GearState, Materials, Particles, PerParticle, PredictAhead, Rotation,
+    RunHealth, SimClock, VerletList, VerletState, WallHistory,
 };
+use grainflow_systems::fluid::FluidFlow;
 use grainflow_systems::monitor::kinetic_energy;
-use grainflow_systems::schedule::{corrector_may_predict_ahead, Slot};
-use grainflow_systems::{build_schedule, Phase, StepSet, SystemEntry};
+use grainflow_systems::schedule::{build_startup, corrector_may_predict_ahead, Slot};
+use grainflow_systems::{CoupledStep, Phase, StepSet, SystemEntry};
 
 use crate::observables::{observables, record_coupling, CouplingLog};
 use crate::output::{write_particles, ParticleOutput};
@@ -43,9 +44,10 @@ const OUTPUT_ENTRIES: &[SystemEntry] = &[
 pub struct Simulation {
     pub scene: Scene,
     pub world: World,
-    pub step_schedule: Schedule,
+    /// The time step: one fluid step, the coupling, then n_s DEM substeps, run one DEM
+    /// substep at a time.
+    pub coupled_step: CoupledStep,
     pub startup_schedule: Schedule,
-    pub step_systems: Vec<(StepSet, &'static str)>,
     pub estimate: Option<StepEstimate>,
     started: bool,
 }
@@ -109,14 +111,13 @@ impl Simulation {
         if corrector_may_predict_ahead(&world) {
             world.insert_resource(PredictAhead::default());
         }
-        let (step_schedule, step_systems) = build_schedule(&world, Phase::Step, OUTPUT_ENTRIES);
-        let (startup_schedule, _) = build_schedule(&world, Phase::Startup, &[]);
+        let coupled_step = CoupledStep::new(&world, OUTPUT_ENTRIES);
+        let startup_schedule = build_startup(&world);
         Ok(Self {
             scene,
             world,
-            step_schedule,
+            coupled_step,
             startup_schedule,
-            step_systems,
             estimate,
             started: false,
         })
@@ -162,7 +163,7 @@ impl Simulation {
         if let Some(mut predict) = self.world.get_resource_mut::<PredictAhead>() {
             predict.allowed = ahead && !written;
         }
-        self.step_schedule.run(&mut self.world);
+        self.coupled_step.run_substep(&mut self.world);
     }
 
     pub fn failure(&self) -> Option<String> {
@@ -417,7 +418,7 @@ impl Simulation {
                 crate::scene::IntegratorName::Gear => "gear",
                 crate::scene::IntegratorName::VelocityVerlet => "velocity_verlet",
             },
-            "schedule": self.step_systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
+            "schedule": self.coupled_step.systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
             "fluid": self.fluid_summary(),
             "observables": observables(&self.world, &self.scene),
         })

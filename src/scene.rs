@@ -183,7 +183,7 @@ pub struct CouplingSpec {
     #[serde(default = "default_force_points")]
     pub points: usize,
     /// The lubrication correction between particles closer than `lubrication_range`
-    /// (`grainflow_systems::lubrication`).
+    /// (`grainflow_systems::coupling::lubrication`).
     #[serde(default)]
     pub lubrication: bool,
     /// Surface gap below which the lubrication correction acts (default: the fluid cell
@@ -670,7 +670,7 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, Sce
     {
         if scene.has_particles() {
             let dt_d = scene.simulation.dt;
-            let n_s = grainflow_systems::fluid::subcycles(dt_f, dt_d);
+            let n_s = grainflow_systems::coupling::subcycles(dt_f, dt_d);
             scene.subcycling = Some((n_s, dt_d));
             scene.simulation.dt = dt_f / n_s as f64;
         }
@@ -1014,8 +1014,8 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 ));
             }
         }
-        if grainflow_systems::lebedev::rule_degree(c.points).is_none() {
-            let counts: Vec<usize> = grainflow_systems::lebedev::RULES
+        if grainflow_systems::coupling::lebedev::rule_degree(c.points).is_none() {
+            let counts: Vec<usize> = grainflow_systems::coupling::lebedev::RULES
                 .iter()
                 .map(|r| r.0)
                 .collect();

@@ -7,8 +7,9 @@ mod common;
 use std::f64::consts::PI;
 
 use common::simulation;
-use grainflow_components::{Coupling, FluidFlow, HydroForces, Particles};
-use grainflow_systems::fluid::subcycles;
+use grainflow_components::{Coupling, HydroForces, Particles};
+use grainflow_systems::coupling::subcycles;
+use grainflow_systems::fluid::FluidFlow;
 
 /// Scene text: fluid box `[0,1]^3` of `cells`^3 coarse cells at `level`, viscosity `nu`,
 /// fluid time step `dt_f`, `boundaries` (TOML lines), one sphere (TOML lines), the
@@ -242,10 +243,98 @@ fn subcycling_follows_the_seeds_formula() {
         "radius = 0.1\nposition = [0.5, 0.5, 0.5]",
     )
     .replace("[simulation]\ndt = 0.01", "[simulation]\ndt = 1.5e-3");
-    let sim = simulation(&text, "subcycles.toml");
+    let mut sim = simulation(&text, "subcycles.toml");
     assert_eq!(sim.world.resource::<Coupling>().subcycles, 7);
+    assert_eq!(sim.coupled_step.substeps, 7);
     let dt = sim.world.resource::<grainflow_components::SimClock>().dt;
     assert!((dt - 1e-2 / 7.0).abs() < 1e-18, "dt_D' = {dt}");
+    // the fluid step runs in the first of every 7 DEM steps
+    for step in 0..30u64 {
+        sim.step();
+        let fluid_steps = sim.world.resource::<FluidFlow>().stats.steps;
+        assert_eq!(fluid_steps, step / 7 + 1, "after DEM step {step}");
+    }
+}
+
+/// A scene gets the coupling's systems only when it couples a flow to particles: a DEM
+/// scene builds no fluid step and no coupling system (nor their resources), a flow
+/// without particles only the flow step, and the velocity blending only a scene that sets
+/// `coupling.alpha`.
+#[test]
+fn only_coupled_scenes_build_the_coupling() {
+    const COUPLING: [&str; 7] = [
+        "cell_markers",
+        "velocity_blending",
+        "hydrodynamic_sampling",
+        "held_hydrodynamic_force",
+        "sync_rows<HydroForces>",
+        "permute_rows<HydroForces>",
+        "multigrid_fluid",
+    ];
+    let names = |sim: &grainflow::run::Simulation| -> Vec<&'static str> {
+        sim.coupled_step.systems.iter().map(|(_, n)| *n).collect()
+    };
+    let coupled = scene(
+        4,
+        1,
+        0.1,
+        1e-2,
+        "",
+        "radius = 0.1\nposition = [0.5, 0.5, 0.5]",
+    );
+    let sim = simulation(&coupled, "coupled.toml");
+    assert_eq!(
+        names(&sim).iter().filter(|n| COUPLING.contains(n)).count(),
+        6,
+        "{:?}",
+        names(&sim)
+    );
+    assert!(!names(&sim).contains(&"velocity_blending"));
+    let blended = coupled.replace("[[materials]]", "[coupling]\nalpha = 0.1\n\n[[materials]]");
+    let sim = simulation(&blended, "blended.toml");
+    assert!(
+        names(&sim).contains(&"velocity_blending"),
+        "{:?}",
+        names(&sim)
+    );
+
+    let flow_only = coupled[..coupled.find("[[materials]]").expect("materials")].to_string();
+    let sim = simulation(&flow_only, "flow.toml");
+    let flow_names = names(&sim);
+    assert_eq!(
+        flow_names
+            .iter()
+            .filter(|n| COUPLING.contains(n))
+            .collect::<Vec<_>>(),
+        [&"multigrid_fluid"]
+    );
+    assert!(!sim.world.contains_resource::<Coupling>());
+
+    let dry = coupled.replace(
+        &coupled[coupled.find("[fluid]").expect("fluid")
+            ..coupled.find("[[materials]]").expect("materials")],
+        "",
+    );
+    let sim = simulation(&dry, "dry.toml");
+    let dry_names = names(&sim);
+    assert!(
+        dry_names.iter().all(|n| !COUPLING.contains(n)),
+        "{dry_names:?}"
+    );
+    assert!(
+        sim.coupled_step
+            .systems
+            .iter()
+            .all(|(set, _)| !grainflow_systems::schedule::FLUID_STEP.contains(set)),
+        "{dry_names:?}"
+    );
+    assert_eq!(sim.coupled_step.substeps, 1);
+    assert!(!sim.world.contains_resource::<FluidFlow>());
+    assert!(!sim.world.contains_resource::<Coupling>());
+    assert!(!sim.world.contains_resource::<HydroForces>());
+    assert!(!sim
+        .world
+        .contains_resource::<grainflow_components::CellMarkers>());
 }
 
 /// Terminal velocity of a sphere settling in a closed box (rho / rho_f = 2, Re_p ~ 0.02;
@@ -543,4 +632,39 @@ fn particles_outside_the_fluid_grid_are_refused() {
             && failure.contains("before fluid step 34"),
         "{failure}"
     );
+}
+
+/// `grainflow check` shows the coupled step of the seed's sedimentation case: one fluid
+/// step with its coupling, then n_s = 11 DEM substeps; the fluid step and its coupling
+/// between the two halves of the first substep.
+#[test]
+fn check_shows_the_coupled_step() {
+    let case =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/sedimentation-single.toml");
+    let (code, stdout, stderr) = common::run_cli(&["check", case.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout
+        .lines()
+        .skip_while(|l| !l.starts_with("schedule"))
+        .take_while(|l| l.starts_with("schedule") || l.starts_with("  "))
+        .collect();
+    assert!(lines[0].contains("n_s = 11 DEM substeps"), "{stdout}");
+    let at = |text: &str| {
+        lines
+            .iter()
+            .position(|l| l.trim() == text)
+            .unwrap_or_else(|| panic!("no `{text}` in\n{stdout}"))
+    };
+    let order = [
+        at("[every DEM substep, first half]"),
+        at("hertz_contact"),
+        at("[fluid step and its coupling, in the first DEM substep of each fluid step]"),
+        at("cell_markers"),
+        at("multigrid_fluid"),
+        at("hydrodynamic_sampling"),
+        at("[every DEM substep, second half]"),
+        at("held_hydrodynamic_force"),
+        at("gear_correct"),
+    ];
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "{order:?}\n{stdout}");
 }

@@ -8,7 +8,7 @@
 mod common;
 
 use common::*;
-use grainflow_components::FluidFlow;
+use grainflow_systems::fluid::FluidFlow;
 
 /// Lid-driven cavity, 8 x 8 x 1 coarse cells, level 1, one fluid step per DEM step.
 const CAVITY: &str = r#"

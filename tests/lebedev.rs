@@ -7,7 +7,7 @@
 //! otherwise (Folland 2001, "How to integrate a polynomial over a sphere", Amer. Math.
 //! Monthly 108:446, theorem for `int x^a y^b z^c dsigma`), and shown to fail one degree
 //! higher (so the check can fail).
-use grainflow_systems::lebedev::{lebedev_rule, rule_degree, RULES};
+use grainflow_systems::coupling::lebedev::{lebedev_rule, rule_degree, RULES};
 
 fn double_factorial(n: i64) -> f64 {
     if n <= 0 {

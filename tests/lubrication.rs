@@ -1,5 +1,5 @@
 //! Lubrication between two spheres closer than the fluid grid resolves
-//! (`grainflow_systems::lubrication`): the squeeze force of two equal spheres
+//! (`grainflow_systems::coupling::lubrication`): the squeeze force of two equal spheres
 //! approaching head-on at relative speed V across a gap s, `6 pi mu R^2 V / (4 s)` at
 //! small gaps (Jeffrey & Onishi 1984, J. Fluid Mech. 139:261: `X^A_11 = g_1 / xi + g_2
 //! ln(1/xi) + O(1)` with `g_1 = 1/4`, `g_2 = 9/40` for equal spheres, `xi = s / R`; for
@@ -10,7 +10,8 @@ mod common;
 use std::f64::consts::PI;
 
 use common::simulation;
-use grainflow_components::{FluidFlow, Particles};
+use grainflow_components::Particles;
+use grainflow_systems::fluid::FluidFlow;
 
 const R: f64 = 0.25;
 const MU: f64 = 1.0; // rho_f = 1, nu = 1: Re = V 2R / nu = 0.05, Stokes flow

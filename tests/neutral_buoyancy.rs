@@ -11,7 +11,7 @@
 mod common;
 
 use common::{position, simulation};
-use grainflow_components::FluidFlow;
+use grainflow_systems::fluid::FluidFlow;
 
 const N: usize = 16; // cells per side: 4 coarse cells at level 3
 const RADIUS: f64 = 0.125; // 4 cells per diameter in the unit box

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use grainflow::run::Simulation;
-use grainflow_components::FluidFlow;
+use grainflow_systems::fluid::FluidFlow;
 
 mod common;
 

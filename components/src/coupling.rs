@@ -74,14 +74,17 @@ pub struct Coupling {
 /// Level-set markers of the fluid cells (seed: 0 outer, p boundary, -p inner cell of
 /// particle p = row + 1 of the current particle order), the list of marked cells, the
 /// faces held at a particle's rigid-body velocity at the last marking (so that clearing
-/// costs what marking cost, not the grid), and the faces inside free particles under
-/// [`ParticleUpdate::FluidMomentum`] (sorted by face; each face belongs to one particle).
+/// costs what marking cost, not the grid), the faces inside free particles under
+/// [`ParticleUpdate::FluidMomentum`] (sorted by face; each face belongs to one particle),
+/// and, when the scene blends, the faces to blend: (face, particle row) of the faces of a
+/// particle's boundary cells that lie outside every particle (sorted).
 #[derive(Resource, Debug, Clone, Default)]
 pub struct CellMarkers {
     pub marker: Vec<i32>,
     pub marked: Vec<u32>,
     pub rigid_faces: Vec<u32>,
     pub particle_faces: Vec<ParticleFace>,
+    pub blend_faces: Vec<(u32, u32)>,
 }
 
 /// Hydrodynamic force and torque on every particle from the last fluid step, added to

@@ -9,7 +9,6 @@
 pub mod clock;
 pub mod contact_law;
 pub mod coupling;
-pub mod fluid;
 pub mod health;
 pub mod inflow;
 pub mod integrator;
@@ -28,7 +27,6 @@ pub use contact_law::{
 pub use coupling::{
     CellMarkers, Coupling, ForceMethod, HydroForces, ParticleFace, ParticleUpdate, SphereRule,
 };
-pub use fluid::{FluidFlow, FluidStats};
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, PredictAhead, VerletState};

@@ -1,5 +1,5 @@
 //! Parameters of the lubrication correction between particles closer than the fluid grid
-//! resolves (see `grainflow_systems::lubrication`). Present only in coupled scenes that
+//! resolves (see `grainflow_systems::coupling::lubrication`). Present only in coupled scenes that
 //! ask for it.
 use bevy_ecs::prelude::Resource;
 

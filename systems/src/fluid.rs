@@ -1,11 +1,62 @@
 //! The flow step: one time step of the incompressible Navier-Stokes solver
-//! (`grainflow-fluid`: Q1~/Q0 elements, discrete projection, multigrid) whenever the
-//! simulated time reaches the next fluid time, so that the DEM steps between two fluid
-//! steps (the seed's subcycling, dt_F = n_s dt_D) see one flow field.
+//! (`grainflow-fluid`: Q1~/Q0 elements, discrete projection, multigrid), and the flow it
+//! advances ([`FluidFlow`]). `schedule.rs` runs it whenever the simulated time reaches the
+//! next fluid time, so that the DEM steps between two fluid steps (the seed's subcycling,
+//! dt_F = n_s dt_D) see one flow field.
 use bevy_ecs::prelude::*;
-use grainflow_components::{FluidFlow, Particles, RunHealth, SimClock};
-use grainflow_fluid::NavierStokes;
+use grainflow_components::{Particles, RunHealth, SimClock};
+use grainflow_fluid::{NavierStokes, StepReport};
 use rayon::prelude::*;
+
+/// The flow of a scene with a fluid grid: the Navier-Stokes solver of `grainflow-fluid`
+/// (its grid, velocity on faces and pressure on cells, multigrid hierarchies), the time
+/// of its next step, and the run figures of its steps. Present only when the scene has a
+/// fluid grid.
+#[derive(Resource)]
+pub struct FluidFlow {
+    pub solver: NavierStokes,
+    /// Fluid time step dt_F.
+    pub dt: f64,
+    /// Simulated time at which the next fluid step starts.
+    pub next_time: f64,
+    pub stats: FluidStats,
+    /// Velocity scale of the scene (its units): the largest of the boundary speeds,
+    /// sqrt(|f| L) of the body force f, sqrt(|g| L) of gravity and the viscous speed
+    /// nu / L (L the domain's diagonal). A flow faster than [`RUNAWAY_FACTOR`] times it
+    /// (or than that multiple of the fastest particle) has run away.
+    pub velocity_scale: f64,
+}
+
+/// Sums over the fluid steps of a run, for the run report.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FluidStats {
+    pub steps: u64,
+    pub seconds: f64,
+    pub momentum_cycles: u64,
+    /// Sum of ln(reduction per cycle) over the steps (their geometric mean is reported).
+    pub momentum_log_rate: f64,
+    pub pressure_cycles: u64,
+    pub pressure_log_rate: f64,
+    /// Wall seconds of the momentum solves and of the pressure solves.
+    pub momentum_seconds: f64,
+    pub pressure_seconds: f64,
+    pub max_divergence: f64,
+}
+
+impl FluidStats {
+    /// Add one step's report.
+    pub fn add(&mut self, r: &StepReport) {
+        self.steps += 1;
+        self.seconds += r.seconds;
+        self.momentum_cycles += r.momentum_cycles as u64;
+        self.momentum_log_rate += r.momentum_reduction.max(1e-300).ln();
+        self.pressure_cycles += r.pressure_cycles as u64;
+        self.pressure_log_rate += r.pressure_reduction.max(1e-300).ln();
+        self.momentum_seconds += r.momentum_seconds;
+        self.pressure_seconds += r.pressure_seconds;
+        self.max_divergence = self.max_divergence.max(r.max_divergence);
+    }
+}
 
 /// A flow faster than this multiple of the scene's velocity scale
 /// ([`FluidFlow::velocity_scale`], or of the fastest particle) has run away: the flows of
@@ -16,17 +67,14 @@ pub fn has_fluid(w: &World) -> bool {
     w.contains_resource::<FluidFlow>()
 }
 
-/// One flow step when it is due; a flow that is no longer physical
-/// ([`flow_instability`]) stops the run, naming the step and the place.
+/// One flow step; a flow that is no longer physical ([`flow_instability`]) stops the
+/// run, naming the step and the place.
 pub fn multigrid_fluid(
     clock: Res<SimClock>,
     mut flow: ResMut<FluidFlow>,
     particles: Option<Res<Particles>>,
     mut health: ResMut<RunHealth>,
 ) {
-    if !flow.is_due(clock.time, clock.dt) {
-        return;
-    }
     let _span = tracing::info_span!("multigrid_fluid").entered();
     let report = flow.solver.step();
     flow.stats.add(&report);
@@ -122,18 +170,4 @@ pub fn flow_instability(ns: &NavierStokes, scale: f64) -> Option<String> {
         "non-finite pressure in the cell centred at ({:.4e}, {:.4e}, {:.4e})",
         x[0], x[1], x[2]
     ))
-}
-
-/// DEM subcycles per fluid step (seed, "Coupling of FEM-DEM on the time level", after
-/// Feng & Owen 2007): `n_s = int(dt_F / dt_D) + 1`, run with `dt_D' = dt_F / n_s`. A ratio
-/// within 1e-9 of a whole number counts as that number (1e-4 / 1e-5 gives 11 subcycles,
-/// not 10 or 11 by rounding luck).
-pub fn subcycles(dt_fluid: f64, dt_dem: f64) -> u32 {
-    let ratio = dt_fluid / dt_dem;
-    let whole = if (ratio - ratio.round()).abs() <= 1e-9 * ratio {
-        ratio.round()
-    } else {
-        ratio.floor()
-    };
-    whole as u32 + 1
 }

@@ -1,7 +1,8 @@
 //! grainflow systems: plain functions over the ECS data of `grainflow-components`.
 //!
-//! `schedule.rs` declares the order of one time step and the table of systems; reading it
-//! tells the whole step. Each physical model lives in its own file.
+//! `schedule.rs` declares the order of one time step (one fluid step, the coupling, then
+//! n_s DEM substeps) and the table of systems; reading it tells the whole step. Each
+//! physical model lives in its own file; the fluid-particle coupling in `coupling/`.
 //!
 //! In the integrators the largest |x| of a loop is kept as `x.abs().to_bits()` under an
 //! integer `max`: for non-negative floats the bit patterns order like the numbers, and the
@@ -9,17 +10,14 @@
 
 pub mod clamp;
 pub mod compressed_rows;
-pub mod fictitious;
+pub mod coupling;
 pub mod fluid;
 pub mod friction;
 pub mod gear;
 pub mod granular;
 pub mod hertz;
-pub mod hydrodynamic;
 pub mod inflow;
 pub mod jkr;
-pub mod lebedev;
-pub mod lubrication;
 pub mod monitor;
 pub mod neighbour_list;
 pub mod real;
@@ -31,7 +29,7 @@ pub mod team;
 pub mod verlet;
 pub mod walls;
 
-pub use schedule::{build_schedule, Phase, StepSet, SystemEntry, REGISTRY};
+pub use schedule::{build_schedule, CoupledStep, Phase, StepSet, SystemEntry, REGISTRY};
 
 /// Rows per parallel work item. Fixed, so the work split never depends on the thread count
 /// (the results do not either: every particle sums its own forces in list order).

@@ -1,7 +1,23 @@
 //! The time step of grainflow, in order, and the table of its systems.
 //!
-//! One DEM step runs the sets below in this order (the seed's "efficient computation"
-//! slide: neighbour list, contact, hydrodynamics, Gear predictor-corrector):
+//! A scene with a flow steps as the seed's "Coupling of FEM-DEM on the time level": one
+//! fluid step, its coupling to the particles, then n_s DEM substeps
+//! (`crate::coupling::subcycles`). [`CoupledStep`] runs it, one DEM substep at a time:
+//!
+//! ```text
+//! every fluid step (dt_F):
+//!     DEM substep 1 of n_s (dt_D' = dt_F / n_s):
+//!         DEM first half:    Events, SyncRows, Predict, NeighbourList, Reorder, Contact
+//!         fluid step:        CouplingBeforeFlow, FlowStep, CouplingAfterFlow
+//!         DEM second half:   HydrodynamicForce, Correct, Monitor, Output
+//!     DEM substeps 2 .. n_s:
+//!         DEM first half, DEM second half
+//! ```
+//!
+//! A scene without a flow has only the two halves of the DEM step; a scene with a flow and
+//! no particles has only the fluid step and the clock and output of the second half. The
+//! sets (the seed's "efficient computation" slide: neighbour list, contact,
+//! hydrodynamics, Gear predictor-corrector):
 //!
 //! 1. `Events`: walls removed at their time, particles inserted by inflows
 //! 2. `SyncRows`: per-particle blocks grown to the particle count
@@ -15,41 +31,41 @@
 //!    adhesion, the same plus those models with per-contact history (`granular_contact`);
 //!    in coupled scenes that ask for it, the lubrication correction of pairs closer than
 //!    about one fluid cell (`lubrication`)
-//! 7. `VelocityBlending`: when a fluid step is due, the particles' cell markers, their
-//!    rigid-body velocity on the faces inside them and the smooth transition around them
-//!    (`velocity_blending`)
-//! 8. `MultigridFluid`: a Navier-Stokes step whenever the fluid time is reached (every
-//!    n_s DEM steps: the DEM subcycles inside a fluid step)
-//! 9. `HydrodynamicSampling`: after a fluid step, the hydrodynamic force and torque of
-//!    every particle from the new flow; in every subcycle they are added, held constant,
-//!    to the contact forces (`hydrodynamic_sampling`)
-//! 10. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation
+//! 7. `CouplingBeforeFlow`: the particles' cell markers and their rigid-body velocity on
+//!    the faces inside them (`cell_markers`), and the smooth transition around them
+//!    (`velocity_blending`, when the scene sets `alpha`)
+//! 8. `FlowStep`: one Navier-Stokes step of dt_F (`multigrid_fluid`)
+//! 9. `CouplingAfterFlow`: the hydrodynamic force and torque of every particle from the
+//!    new flow (`hydrodynamic_sampling`)
+//! 10. `HydrodynamicForce`: in every substep the force and torque of the last fluid step,
+//!     held constant, added to the contact forces (`held_hydrodynamic_force`)
+//! 11. `Correct`: integrator corrector with body forces (gravity, buoyancy), rotation
 //!     under contact torques; the clock; kinematic (fixed) particles put back on their
 //!     path. When the run loop grants `PredictAhead` (see
 //!     [`corrector_may_predict_ahead`]), the translation corrector also runs the next
 //!     step's predictor on each row in the same pass
-//! 11. `Monitor`: stability checks (overlap, non-finite state)
-//! 12. `Output`: writers (added by the application)
+//! 12. `Monitor`: stability checks (overlap, non-finite state)
+//! 13. `Output`: writers (added by the application)
 //!
 //! A scene gets only the systems whose `wanted` test passes on its world, so a scene
-//! without inflow, walls or Gear neither runs nor allocates their systems. Adding a model
-//! means one file with its systems and one line in [`REGISTRY`].
+//! without inflow, walls, Gear or a flow neither runs nor allocates their systems. Adding
+//! a model means one file with its systems and one line in [`REGISTRY`].
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
-use grainflow_components::{GearState, IntegratorKind, VerletState, Walls};
+use grainflow_components::{GearState, IntegratorKind, SimClock, VerletState, Walls};
 
 use crate::clamp::has_clamped;
-use crate::fictitious::has_coupling;
-use crate::fluid::has_fluid;
+use crate::coupling::{has_blending, has_coupling};
+use crate::fluid::{has_fluid, FluidFlow};
 use crate::granular::has_contact_laws;
 use crate::rotation::has_rotation;
 use crate::{
-    clamp, fictitious, fluid, gear, granular, hertz, hydrodynamic, inflow, lubrication, monitor,
-    neighbour_list, rotation, rows, verlet, walls,
+    clamp, coupling, fluid, gear, granular, hertz, inflow, monitor, neighbour_list, rotation, rows,
+    verlet, walls,
 };
-use grainflow_components::{Clamped, HydroForces, Rotation};
+use grainflow_components::{Clamped, Coupling, HydroForces, Rotation};
 
-/// The ordered phases of a DEM step.
+/// The ordered phases of a step.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum StepSet {
     Events,
@@ -58,25 +74,36 @@ pub enum StepSet {
     NeighbourList,
     Reorder,
     Contact,
-    VelocityBlending,
-    MultigridFluid,
-    HydrodynamicSampling,
+    CouplingBeforeFlow,
+    FlowStep,
+    CouplingAfterFlow,
+    HydrodynamicForce,
     Correct,
     Monitor,
     Output,
 }
 
-/// All sets in step order.
-pub const STEP_ORDER: [StepSet; 12] = [
+/// The DEM substep up to its contact forces, in order.
+pub const DEM_FIRST_HALF: [StepSet; 6] = [
     StepSet::Events,
     StepSet::SyncRows,
     StepSet::Predict,
     StepSet::NeighbourList,
     StepSet::Reorder,
     StepSet::Contact,
-    StepSet::VelocityBlending,
-    StepSet::MultigridFluid,
-    StepSet::HydrodynamicSampling,
+];
+
+/// The fluid step with its coupling, in order: run inside the first DEM substep of each
+/// fluid step, after [`DEM_FIRST_HALF`].
+pub const FLUID_STEP: [StepSet; 3] = [
+    StepSet::CouplingBeforeFlow,
+    StepSet::FlowStep,
+    StepSet::CouplingAfterFlow,
+];
+
+/// The DEM substep from the hydrodynamic force on, in order.
+pub const DEM_SECOND_HALF: [StepSet; 4] = [
+    StepSet::HydrodynamicForce,
     StepSet::Correct,
     StepSet::Monitor,
     StepSet::Output,
@@ -344,23 +371,32 @@ pub const REGISTRY: &[SystemEntry] = &[
         name: "lubrication",
         set: StepSet::Contact,
         phase: Phase::Both,
-        wanted: lubrication::has_lubrication,
+        wanted: coupling::lubrication::has_lubrication,
         add: |s, set| {
-            s.add_systems(lubrication::lubrication.in_set(set));
+            s.add_systems(coupling::lubrication::lubrication.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "cell_markers",
+        set: StepSet::CouplingBeforeFlow,
+        phase: Phase::Step,
+        wanted: has_coupling,
+        add: |s, set| {
+            s.add_systems(coupling::markers::cell_markers.in_set(set));
         },
     },
     SystemEntry {
         name: "velocity_blending",
-        set: StepSet::VelocityBlending,
+        set: StepSet::CouplingBeforeFlow,
         phase: Phase::Step,
-        wanted: has_coupling,
+        wanted: has_blending,
         add: |s, set| {
-            s.add_systems(fictitious::velocity_blending.in_set(set));
+            s.add_systems(coupling::blending::velocity_blending.in_set(set));
         },
     },
     SystemEntry {
         name: "multigrid_fluid",
-        set: StepSet::MultigridFluid,
+        set: StepSet::FlowStep,
         phase: Phase::Step,
         wanted: has_fluid,
         add: |s, set| {
@@ -369,11 +405,20 @@ pub const REGISTRY: &[SystemEntry] = &[
     },
     SystemEntry {
         name: "hydrodynamic_sampling",
-        set: StepSet::HydrodynamicSampling,
+        set: StepSet::CouplingAfterFlow,
         phase: Phase::Step,
         wanted: has_coupling,
         add: |s, set| {
-            s.add_systems(hydrodynamic::hydrodynamic_sampling.in_set(set));
+            s.add_systems(coupling::sampling::hydrodynamic_sampling.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "held_hydrodynamic_force",
+        set: StepSet::HydrodynamicForce,
+        phase: Phase::Step,
+        wanted: has_coupling,
+        add: |s, set| {
+            s.add_systems(coupling::sampling::held_hydrodynamic_force.in_set(set));
         },
     },
     SystemEntry {
@@ -468,24 +513,25 @@ pub fn corrector_may_predict_ahead(world: &World) -> bool {
     has_dem(world) && !inflow::has_inflow(world) && !has_clamped(world) && !has_coupling(world)
 }
 
-/// Build the step (or start-up) schedule for `world` from `REGISTRY` and the
-/// application's `extra` entries (writers). Returns the schedule and the names of the
-/// systems it runs, by set, for `grainflow check`.
+/// Build the schedule of the `sets` (in this order) for `world` from `REGISTRY` and the
+/// application's `extra` entries (writers), with the systems of `phase`. Returns the
+/// schedule and the names of the systems it runs, by set, for `grainflow check`.
 pub fn build_schedule(
     world: &World,
     phase: Phase,
+    sets: &[StepSet],
     extra: &[SystemEntry],
 ) -> (Schedule, Vec<(StepSet, &'static str)>) {
     let mut schedule = Schedule::default();
     // Systems parallelise internally with rayon; bevy's own task pool stays unused.
     schedule.set_executor(SingleThreadedExecutor::default());
-    for pair in STEP_ORDER.windows(2) {
+    for pair in sets.windows(2) {
         schedule.configure_sets(pair[1].after(pair[0]));
     }
     let mut names = Vec::new();
     let mut previous: Option<Slot> = None;
     let entries = REGISTRY.iter().chain(extra);
-    for set in STEP_ORDER {
+    for &set in sets {
         for (k, entry) in entries.clone().enumerate().filter(|(_, e)| e.set == set) {
             let in_phase = entry.phase == Phase::Both || entry.phase == phase;
             if in_phase && (entry.wanted)(world) {
@@ -501,4 +547,69 @@ pub fn build_schedule(
         }
     }
     (schedule, names)
+}
+
+/// The start-up schedule of `world`: forces at t = 0 and the integrators' start values,
+/// the systems of [`Phase::Startup`] in step order.
+pub fn build_startup(world: &World) -> Schedule {
+    let sets = [&DEM_FIRST_HALF[..], &FLUID_STEP, &DEM_SECOND_HALF].concat();
+    build_schedule(world, Phase::Startup, &sets, &[]).0
+}
+
+/// The time step of a scene (module docs): the two halves of a DEM substep and, between
+/// them in the first substep of each fluid step, the fluid step with its coupling.
+pub struct CoupledStep {
+    dem_first_half: Schedule,
+    /// `None` without a flow.
+    fluid_step: Option<Schedule>,
+    dem_second_half: Schedule,
+    /// DEM substeps per fluid step n_s (1 without coupling).
+    pub substeps: u32,
+    /// The systems of the first half, the fluid step and the second half, in order, by set.
+    pub systems: Vec<(StepSet, &'static str)>,
+}
+
+impl CoupledStep {
+    /// The step of `world`, with the application's `extra` entries (writers).
+    pub fn new(world: &World, extra: &[SystemEntry]) -> Self {
+        let (dem_first_half, mut systems) =
+            build_schedule(world, Phase::Step, &DEM_FIRST_HALF, extra);
+        let fluid_step = has_fluid(world).then(|| {
+            let (schedule, names) = build_schedule(world, Phase::Step, &FLUID_STEP, extra);
+            systems.extend(names);
+            schedule
+        });
+        let (dem_second_half, names) = build_schedule(world, Phase::Step, &DEM_SECOND_HALF, extra);
+        systems.extend(names);
+        Self {
+            dem_first_half,
+            fluid_step,
+            dem_second_half,
+            substeps: world.get_resource::<Coupling>().map_or(1, |c| c.subcycles),
+            systems,
+        }
+    }
+
+    /// One DEM substep: its first half, the fluid step with its coupling if the substep
+    /// starts one ([`starts_fluid_step`]), its second half.
+    pub fn run_substep(&mut self, world: &mut World) {
+        self.dem_first_half.run(world);
+        if let Some(fluid_step) = &mut self.fluid_step {
+            if starts_fluid_step(world) {
+                fluid_step.run(world);
+            }
+        }
+        self.dem_second_half.run(world);
+    }
+}
+
+/// Whether the DEM substep under way starts a fluid step: the substep starts within half
+/// a step of the fluid time ([`FluidFlow::next_time`], advanced by dt_F at each fluid
+/// step). In a coupled scene, whose DEM step is dt_F / n_s, this is the first of every
+/// n_s substeps; a scene with a flow and no particles steps its flow at the first step
+/// that reaches each multiple of dt_F.
+pub fn starts_fluid_step(world: &World) -> bool {
+    let clock = world.resource::<SimClock>();
+    let flow = world.resource::<FluidFlow>();
+    clock.time + 0.5 * clock.dt >= flow.next_time
 }

@@ -1,0 +1,107 @@
+//! The fluid-particle coupling (seed, "Coupling of the phases"): a fictitious domain on
+//! the fixed fluid grid, with the hydrodynamic force held over the DEM subcycles.
+//!
+//! # The coupled step
+//!
+//! Time levels (seed, "Coupling of FEM-DEM on the time level", after Feng & Owen 2007):
+//! one fluid step of dt_F spans n_s = int(dt_F / dt_D) + 1 DEM substeps of
+//! dt_D' = dt_F / n_s ([`subcycles`]). `schedule.rs` runs the fluid step inside the first
+//! of them, between its contact forces and its corrector:
+//!
+//! 1. before the flow step ([`markers`], [`blending`]): the level-set cell markers of
+//!    every particle, the rigid-body velocity `U + w x (x - x_p)` on every face whose
+//!    centre lies inside a particle (held through the step, the fictitious boundary of
+//!    Wan & Turek 2006, or only its start under the fluid-momentum update), and, when the
+//!    scene sets `alpha`, the smooth transition of Luo et al. (2007) on the other faces of
+//!    the cells the surfaces cut;
+//! 2. the flow step (`crate::fluid`): one Navier-Stokes step of dt_F;
+//! 3. after the flow step ([`sampling`]): the hydrodynamic force and torque of every
+//!    particle from the new flow, by [`surface_points`] (the seed's Lebedev-Laikov force
+//!    points, [`lebedev`]), [`volume_integral`] (Wan & Turek 2006) or, for free particles
+//!    under the fluid-momentum update, [`fluid_momentum`] (Sharma & Patankar 2005).
+//!
+//! In every substep the force and torque of the last fluid step are added, held
+//! constant, to the contact forces (`m dU/dt = (rho - rho_f) V g + F_p + F_f`,
+//! `I dw/dt = T_p + T_f`): the coupling is explicit in the particle velocity.
+//!
+//! This module holds the helpers its files share; each job has its own file.
+use bevy_ecs::prelude::*;
+use grainflow_components::{Clamped, Coupling, ParticleUpdate, Particles};
+
+pub mod blending;
+pub mod fluid_momentum;
+pub mod lebedev;
+pub mod lubrication;
+pub mod markers;
+pub mod sampling;
+pub mod surface_points;
+pub mod volume_integral;
+
+/// Whether the world couples particles and fluid.
+pub fn has_coupling(w: &World) -> bool {
+    w.contains_resource::<Coupling>()
+}
+
+/// Whether the world couples particles and fluid with the smooth velocity transition.
+pub fn has_blending(w: &World) -> bool {
+    w.get_resource::<Coupling>()
+        .is_some_and(|c| c.alpha.is_some())
+}
+
+/// DEM subcycles per fluid step (seed, "Coupling of FEM-DEM on the time level", after
+/// Feng & Owen 2007): `n_s = int(dt_F / dt_D) + 1`, run with `dt_D' = dt_F / n_s`. A ratio
+/// within 1e-9 of a whole number counts as that number (1e-4 / 1e-5 gives 11 subcycles,
+/// not 10 or 11 by rounding luck).
+pub fn subcycles(dt_fluid: f64, dt_dem: f64) -> u32 {
+    let ratio = dt_fluid / dt_dem;
+    let whole = if (ratio - ratio.round()).abs() <= 1e-9 * ratio {
+        ratio.round()
+    } else {
+        ratio.floor()
+    };
+    whole as u32 + 1
+}
+
+/// Whether the faces inside particle row `i` are held at its rigid-body velocity through
+/// the fluid step (a fixed particle, or the scene's [`ParticleUpdate::Prescribed`]), or
+/// start the step at it and move with the fluid ([`ParticleUpdate::FluidMomentum`]).
+pub fn holds_faces(coupling: &Coupling, clamped: Option<&Clamped>, i: usize) -> bool {
+    coupling.update == ParticleUpdate::Prescribed || clamped.is_some_and(|c| c.held[i])
+}
+
+/// Index ranges `[lo, hi)` per direction of the cells that the box `x_p +- reach` meets.
+pub fn cell_range(
+    lower: [f64; 3],
+    h: [f64; 3],
+    n: [usize; 3],
+    x: [f64; 3],
+    reach: f64,
+) -> [(usize, usize); 3] {
+    [0, 1, 2].map(|d| {
+        let lo = ((x[d] - reach - lower[d]) / h[d]).floor().max(0.0) as usize;
+        let hi = (((x[d] + reach - lower[d]) / h[d]).floor() + 1.0).max(0.0) as usize;
+        (lo.min(n[d]), hi.min(n[d]))
+    })
+}
+
+/// Rigid-body velocity `U + w x (x - x_p)` of particle `i` at `x`.
+pub fn rigid_velocity(particles: &Particles, i: usize, x: [f64; 3]) -> [f64; 3] {
+    let r = [0, 1, 2].map(|d| x[d] - particles.position[d][i]);
+    let w = [0, 1, 2].map(|d| particles.angular_velocity[d][i]);
+    let cross = [
+        w[1] * r[2] - w[2] * r[1],
+        w[2] * r[0] - w[0] * r[2],
+        w[0] * r[1] - w[1] * r[0],
+    ];
+    [0, 1, 2].map(|d| particles.velocity[d][i] + cross[d])
+}
+
+/// Adds the force `df` acting at lever arm `arm` to the force `f` and torque `t`.
+pub(crate) fn add_force(f: &mut [f64; 3], t: &mut [f64; 3], arm: [f64; 3], df: [f64; 3]) {
+    for d in 0..3 {
+        f[d] += df[d];
+    }
+    t[0] += arm[1] * df[2] - arm[2] * df[1];
+    t[1] += arm[2] * df[0] - arm[0] * df[2];
+    t[2] += arm[0] * df[1] - arm[1] * df[0];
+}

@@ -1,0 +1,90 @@
+//! The hydrodynamic force and torque on the particles (seed, "Hydrodynamic forces"), and
+//! their part in the Newton-Euler equations: `m dU/dt = (rho - rho_f) V g + F_p + F_f`,
+//! `I dw/dt = T_p + T_f`.
+//!
+//! After each fluid step the force of every particle is computed from the new flow
+//! ([`hydrodynamic_sampling`]): by the scene's [`ForceMethod`] for particles whose faces
+//! are held ([`super::surface_points`], [`super::volume_integral`]), from the momentum of
+//! the fluid inside them for free particles under the fluid-momentum update
+//! ([`super::fluid_momentum`]), plus the momentum the velocity blending moved
+//! ([`super::blending`]). It is then held constant over the DEM subcycles up to the next
+//! fluid step (Feng & Owen 2007) and added to the contact forces in every subcycle
+//! ([`held_hydrodynamic_force`]).
+use bevy_ecs::prelude::*;
+use grainflow_components::{
+    CellMarkers, Clamped, ContactLaws, Coupling, ForceMethod, HydroForces, Particles, Rotation,
+};
+use rayon::prelude::*;
+
+use super::fluid_momentum::fluid_momentum_force;
+use super::holds_faces;
+use super::surface_points::surface_point_force;
+use super::volume_integral::volume_integral_force;
+use crate::fluid::FluidFlow;
+
+/// `hydrodynamic_sampling`: after each fluid step, the force and torque of every
+/// particle from the new flow, held until the next fluid step.
+pub fn hydrodynamic_sampling(
+    coupling: Res<Coupling>,
+    flow: Res<FluidFlow>,
+    markers: Res<CellMarkers>,
+    clamped: Option<Res<Clamped>>,
+    particles: Res<Particles>,
+    mut hydro: ResMut<HydroForces>,
+) {
+    let _span = tracing::info_span!("hydrodynamic_sampling").entered();
+    hydro.sampled_steps = flow.stats.steps;
+    let ns = &flow.solver;
+    let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
+    let carried = fluid_momentum_force(
+        ns,
+        &markers.particle_faces,
+        &particles,
+        coupling.fluid_density,
+        flow.dt,
+    );
+    let ft: Vec<([f64; 3], [f64; 3])> = (0..particles.len())
+        .into_par_iter()
+        .map(|i| {
+            if !holds_faces(&coupling, clamped.as_deref(), i) {
+                return carried[i];
+            }
+            let xp = [0, 1, 2].map(|d| particles.position[d][i]);
+            let r = particles.radius[i];
+            match coupling.method {
+                ForceMethod::SurfacePoints => surface_point_force(grid, u, p, &coupling, xp, r),
+                ForceMethod::VolumeIntegral => volume_integral_force(ns, &coupling, xp, r),
+            }
+        })
+        .collect();
+    for (i, (f, t)) in ft.iter().enumerate() {
+        for d in 0..3 {
+            hydro.force[d][i] = f[d] + hydro.blending_force[d][i];
+            hydro.torque[d][i] = t[d] + hydro.blending_torque[d][i];
+        }
+    }
+}
+
+/// `held_hydrodynamic_force`: in every DEM substep, the force and torque of the last
+/// fluid step added to the contact force and torque.
+pub fn held_hydrodynamic_force(
+    hydro: Res<HydroForces>,
+    laws: Option<Res<ContactLaws>>,
+    mut particles: ResMut<Particles>,
+    mut rotation: ResMut<Rotation>,
+) {
+    let _span = tracing::info_span!("held_hydrodynamic_force").entered();
+    for d in 0..3 {
+        for (f, h) in particles.force[d].iter_mut().zip(&hydro.force[d]) {
+            *f += h;
+        }
+    }
+    // Contact laws with torques write the torque of the step; otherwise the hydrodynamic
+    // torque is the only one.
+    let contact_torque = laws.is_some_and(|l| l.has_torques());
+    for d in 0..3 {
+        for (t, h) in rotation.torque[d].iter_mut().zip(&hydro.torque[d]) {
+            *t = if contact_torque { *t + h } else { *h };
+        }
+    }
+}

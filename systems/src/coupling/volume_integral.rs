@@ -1,0 +1,62 @@
+//! Hydrodynamic force on a particle by the volume integral of the fictitious boundary
+//! method (Wan & Turek 2006, Int. J. Numer. Meth. Fluids 51:531, eq. for the hydrodynamic
+//! force with the indicator `alpha` of the particle): `F = -int sigma . grad(alpha)`, with
+//! `alpha_h` the Q1~ interpolant of the indicator (face value 1 when the face centre lies
+//! inside the sphere), whose cell mean gradient is `1/|T| sum_f alpha_f n_f |f|`; so
+//! `F = -sum_T sigma_T . sum_f alpha_f n_f |f|` and
+//! `T = -sum_T (x_T - x_p) x (sigma_T . sum_f alpha_f n_f |f|)` over the cells where
+//! `alpha_h` is not constant (those the surface cuts), with the cell stress
+//! `sigma_T = rho_f (-p_T I + nu (G_T + G_T^T))` and the cell mean velocity gradient
+//! `G_T = 1/|T| sum_f u_f (x) n_f |f|`. Evaluated with the solver's discrete operators,
+//! this is minus its momentum residual summed over the faces inside the sphere
+//! ([`volume_integral_force`]), computed at those faces only.
+use grainflow_components::Coupling;
+use grainflow_fluid::NavierStokes;
+
+use super::{add_force, cell_range};
+
+/// Force and torque on a sphere by the volume integral of the fictitious boundary
+/// method, `F = -int sigma . grad(alpha_h)`, evaluated with the discrete operators
+/// (module docs): minus the momentum residual `R` of the flow solver
+/// ([`NavierStokes::momentum_residual_at`], computed at the faces inside the sphere
+/// only) summed over those faces, scaled by the fluid density; torque
+/// `-sum (x_f - x_p) x R_f`.
+pub fn volume_integral_force(
+    ns: &NavierStokes,
+    coupling: &Coupling,
+    xp: [f64; 3],
+    r: f64,
+) -> ([f64; 3], [f64; 3]) {
+    let grid = ns.grid();
+    let lay = grid.layout();
+    let h = grid.h();
+    let range = cell_range(grid.lower, h, lay.n, xp, r);
+    let mut faces = Vec::new();
+    let mut arms = Vec::new();
+    for a in 0..3 {
+        // the a-faces of the cells in range: lower faces, plus the upper layer
+        let mut hi = [range[0].1, range[1].1, range[2].1];
+        if !lay.periodic[a] {
+            hi[a] = (hi[a] + 1).min(lay.n[a] + 1);
+        }
+        for k in range[2].0..hi[2].min(lay.fdim[a][2]) {
+            for j in range[1].0..hi[1].min(lay.fdim[a][1]) {
+                for i in range[0].0..hi[0].min(lay.fdim[a][0]) {
+                    let fc = [i, j, k];
+                    let x = grid.face_centre(a, fc);
+                    let arm = [0, 1, 2].map(|d| x[d] - xp[d]);
+                    if arm.iter().map(|v| v * v).sum::<f64>() < r * r {
+                        faces.push((a, fc));
+                        arms.push(arm);
+                    }
+                }
+            }
+        }
+    }
+    let (mut f, mut t) = ([0.0; 3], [0.0; 3]);
+    for (arm, res) in arms.into_iter().zip(ns.momentum_residual_at(&faces)) {
+        let df = res.map(|v| -coupling.fluid_density * v);
+        add_force(&mut f, &mut t, arm, df);
+    }
+    (f, t)
+}
