@@ -159,9 +159,9 @@ pub fn on_floor_count(
 ) -> usize {
     let count = labels.iter().copied().max().map_or(0, |m| m + 1);
     let mut touches = vec![false; count];
-    for i in 0..position.len() {
-        if floor.gap(position[i], radius[i]) < CONTACT_GAP_FRACTION * radius[i] {
-            touches[labels[i]] = true;
+    for ((&x, &r), &label) in position.iter().zip(radius).zip(labels) {
+        if floor.gap(x, r) < CONTACT_GAP_FRACTION * r {
+            touches[label] = true;
         }
     }
     labels.iter().filter(|&&l| touches[l]).count()

@@ -66,7 +66,7 @@ fn a_lattice_is_one_cluster_when_its_gaps_are_below_the_contact_gap() {
     // sweep along x must still find the pairs of equal x
     let mut two: Vec<[f64; 3]> = (0..5).map(|k| [0.0, 0.0, f64::from(k) * 2.0 * r]).collect();
     two.extend((0..5).map(|k| [3.0, 0.0, f64::from(k) * 2.0 * r]));
-    let (labels, count) = clusters(&two, &vec![r; 10], CONTACT_GAP_FRACTION);
+    let (labels, count) = clusters(&two, &[r; 10], CONTACT_GAP_FRACTION);
     assert_eq!(count, 2);
     assert!(labels[..5].iter().all(|&l| l == 0) && labels[5..].iter().all(|&l| l == 1));
 }
