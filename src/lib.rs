@@ -2,6 +2,7 @@
 //! scene files, world building, schedules, run loop and output.
 pub mod build;
 pub mod cli;
+pub mod cloud;
 pub mod fluid;
 pub mod lammps;
 pub mod observables;

@@ -14,7 +14,13 @@
 //!   1 % of the mean radius); null if it never does, with `smallest_gap` telling how
 //!   close they came) and
 //!   `tumble_time` (first time after the kiss at which the trailing sphere passes the
-//!   leading one along gravity).
+//!   leading one along gravity);
+//! * more than one free particle (a settling cloud, `src/cloud.rs`, recorded after every
+//!   fluid step whatever the particle count): `settling_velocity_peak` (the largest mean
+//!   velocity along gravity of the cloud) and `settling_velocity_peak_time`,
+//!   `settling_velocity_final`, `landing_time` (first time every sphere rests on the
+//!   floor or on spheres that do; null if it never does), `clusters_final` and
+//!   `clusters_max` (groups of spheres with gaps below a tenth of the radius).
 use bevy_ecs::prelude::*;
 use grainflow_components::{Clamped, Coupling, HydroForces, Particles, RunHealth, SimClock};
 use grainflow_fluid::sample::velocity_at;
@@ -25,6 +31,7 @@ use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
 
+use crate::cloud::{self, CloudState};
 use crate::scene::{FluidBoundary, Scene};
 
 /// One record per fluid step of every particle (by stable id order).
@@ -40,6 +47,8 @@ pub struct CouplingLog {
     pub csv: Option<PathBuf>,
     /// Why appending to `csv` failed (the run stops).
     pub error: Option<String>,
+    /// The cloud of free particles after every fluid step (any particle count).
+    pub cloud: Vec<CloudState>,
 }
 
 /// Header line of `coupling.csv` ([`CouplingLog::record_csv`]).
@@ -49,19 +58,40 @@ pub const COUPLING_CSV_HEADER: &str = "time,id,x,y,z,vx,vy,vz,fx,fy,fz\n";
 /// keeps no history).
 pub const LOGGED_PARTICLES: usize = 16;
 
-/// `record_coupling`: after every fluid step, the particles' state and hydrodynamic force.
+/// `record_coupling`: after every fluid step, the particles' state and hydrodynamic force
+/// (at most [`LOGGED_PARTICLES`]) and the state of the cloud of free particles.
 pub fn record_coupling(
     clock: Res<SimClock>,
     particles: Res<Particles>,
     hydro: Res<HydroForces>,
     health: Res<RunHealth>,
+    flow: Option<Res<FluidFlow>>,
     mut log: ResMut<CouplingLog>,
 ) {
     // a step that failed is not recorded: the history ends at the last good fluid step
-    if hydro.sampled_steps == log.recorded_steps
-        || particles.len() > LOGGED_PARTICLES
-        || health.failure.is_some()
-    {
+    if hydro.sampled_steps == log.recorded_steps || health.failure.is_some() {
+        return;
+    }
+    if let Some(flow) = &flow {
+        let grid = flow.solver.grid();
+        let free: Vec<usize> = (0..particles.len())
+            .filter(|&i| particles.inv_mass[i] > 0.0)
+            .collect();
+        let col = |c: &[Vec<f64>; 3], i: usize| [c[0][i], c[1][i], c[2][i]];
+        let position: Vec<[f64; 3]> = free.iter().map(|&i| col(&particles.position, i)).collect();
+        let velocity: Vec<[f64; 3]> = free.iter().map(|&i| col(&particles.velocity, i)).collect();
+        let radius: Vec<f64> = free.iter().map(|&i| particles.radius[i]).collect();
+        let state = CloudState::of(
+            clock.time,
+            &position,
+            &radius,
+            &velocity,
+            (grid.lower, grid.upper),
+        );
+        log.cloud.push(state);
+    }
+    if particles.len() > LOGGED_PARTICLES {
+        log.recorded_steps = hydro.sampled_steps;
         return;
     }
     log.recorded_steps = hydro.sampled_steps;
@@ -158,12 +188,19 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
     ) else {
         return json!({});
     };
+    let particles = world.resource::<Particles>();
+    let mut out = serde_json::Map::new();
+    let free_count = particles.inv_mass.iter().filter(|&&m| m > 0.0).count();
+    if let (Some(down), true) = (cloud::unit(scene.simulation.gravity), free_count > 1) {
+        if !log.cloud.is_empty() {
+            out.extend(cloud_observables(&log.cloud, down));
+        }
+    }
     let Some(last) = log.state.last() else {
-        return json!({});
+        return serde_json::Value::Object(out);
     };
     let fluid = scene.fluid.as_ref().expect("coupled scene has a fluid");
     let nu = fluid.viscosity.expect("validated");
-    let particles = world.resource::<Particles>();
     let radius_of = |id: u32| {
         let i = particles
             .id
@@ -184,7 +221,6 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
     };
     let fixed: Vec<usize> = (0..log.ids.len()).filter(|&k| held(log.ids[k])).collect();
     let free: Vec<usize> = (0..log.ids.len()).filter(|&k| !held(log.ids[k])).collect();
-    let mut out = serde_json::Map::new();
     let inflow = fluid
         .boundaries
         .sides()
@@ -283,6 +319,44 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
         out.insert("tumble_time".into(), json!(events.tumble_time));
     }
     serde_json::Value::Object(out)
+}
+
+/// The cloud observables (module documentation) of the records `states` for gravity
+/// along the unit vector `down`.
+pub fn cloud_observables(
+    states: &[CloudState],
+    down: [f64; 3],
+) -> serde_json::Map<String, serde_json::Value> {
+    let samples: Vec<cloud::CloudSample> = states.iter().map(|s| s.sample(down)).collect();
+    let peak = samples
+        .iter()
+        .max_by(|a, b| a.settling_velocity.total_cmp(&b.settling_velocity));
+    let mut out = serde_json::Map::new();
+    out.insert(
+        "settling_velocity_peak".into(),
+        json!(peak.map(|s| s.settling_velocity)),
+    );
+    out.insert(
+        "settling_velocity_peak_time".into(),
+        json!(peak.map(|s| s.time)),
+    );
+    out.insert(
+        "settling_velocity_final".into(),
+        json!(samples.last().map(|s| s.settling_velocity)),
+    );
+    out.insert(
+        "landing_time".into(),
+        json!(cloud::landing_time(samples.iter().copied())),
+    );
+    out.insert(
+        "clusters_final".into(),
+        json!(states.last().map(|s| s.clusters)),
+    );
+    out.insert(
+        "clusters_max".into(),
+        json!(states.iter().map(|s| s.clusters).max()),
+    );
+    out
 }
 
 /// Drafting, kissing and tumbling of two spheres, from their gap and order along gravity

@@ -5,7 +5,9 @@
 //!   colour map with a colour bar; spheres of `particles.h5` that cut the plane are drawn
 //!   as their circles of intersection.
 //! * `series`: particle velocity or position (one component or the magnitude) against
-//!   time, one line per particle id, from `particles.h5`.
+//!   time, one line per particle id, from `particles.h5`; or an observable of the whole
+//!   cloud (`src/cloud.rs`: the mean settling velocity, the number of clusters), one line
+//!   per run, with the landing time of each run in the legend.
 //! * `particles`: side views of the spheres of `particles.h5` (orthographic projection
 //!   along x, y or z, spheres to scale in depth order) at one or several frames, coloured
 //!   by speed, id or height.
@@ -26,6 +28,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
+use crate::cloud::CloudState;
+
 /// The font file used for all text unless `GRAINFLOW_FONT` names another.
 pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 
@@ -42,7 +46,8 @@ pub struct PlotArgs {
 pub enum PlotKind {
     /// Contour slice of the flow (fluid.h5) at a plane x=, y= or z=.
     Contour(ContourArgs),
-    /// Particle velocity or position against time (particles.h5), one line per id.
+    /// Particle velocity or position against time (particles.h5), one line per id; or a
+    /// cloud observable (settling velocity, clusters), one line per run.
     Series(SeriesArgs),
     /// Side view of the spheres (particles.h5) at one frame or several side by side.
     Particles(ParticlesArgs),
@@ -82,13 +87,27 @@ pub struct SeriesArgs {
     /// Quantity to plot.
     #[arg(long, value_enum)]
     pub quantity: Quantity,
-    /// Component (default: magnitude for velocity, z for position).
+    /// Component (default: magnitude for velocity, z for position; not for the cloud
+    /// quantities).
     #[arg(long, value_enum)]
     pub component: Option<Component>,
-    /// Particle ids, e.g. 0,1 (default: every particle, at most 12).
+    /// Particle ids, e.g. 0,1 (default: every particle, at most 12; not for the cloud
+    /// quantities, which take every particle).
     #[arg(long, value_delimiter = ',')]
     pub ids: Vec<u32>,
-    /// Output PNG (default `RUN_DIR/QUANTITY_COMPONENT.png`).
+    /// Direction of gravity, for the settling velocity and the floor of the landing
+    /// time: -x, x, -y, y, -z or z (as `--down=-z`).
+    #[arg(long, default_value = "-z", value_parser = parse_down, allow_hyphen_values = true)]
+    pub down: [f64; 3],
+    /// Further run directories drawn on the same axes (cloud quantities only), e.g. the
+    /// same scene without adhesion.
+    #[arg(long = "with", value_name = "RUN_DIR")]
+    pub with: Vec<PathBuf>,
+    /// Also write the plotted values to this CSV file (`line,time,value`).
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Output PNG (default `RUN_DIR/QUANTITY_COMPONENT.png`, `RUN_DIR/QUANTITY.png` for
+    /// the cloud quantities).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Image size in pixels, WIDTHxHEIGHT.
@@ -160,6 +179,10 @@ pub enum Field {
 pub enum Quantity {
     Velocity,
     Position,
+    /// Mean velocity of the spheres along gravity (`--down`), one line per run.
+    SettlingVelocity,
+    /// Number of clusters of spheres (gaps below a tenth of the radius), one line per run.
+    Clusters,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -195,6 +218,21 @@ fn parse_plane(s: &str) -> Result<Plane, String> {
         .filter(|v: &f64| v.is_finite())
         .ok_or_else(|| format!("expected a finite number after `=`, got `{text}`"))?;
     Ok(Plane { axis, value, text })
+}
+
+fn parse_down(s: &str) -> Result<[f64; 3], String> {
+    let t = s.trim();
+    let (sign, axis) = match t.strip_prefix('-') {
+        Some(a) => (-1.0, a),
+        None => (1.0, t.strip_prefix('+').unwrap_or(t)),
+    };
+    let axis = AXES
+        .iter()
+        .position(|a| *a == axis)
+        .ok_or_else(|| format!("expected -x, x, -y, y, -z or z, got `{s}`"))?;
+    let mut down = [0.0; 3];
+    down[axis] = sign;
+    Ok(down)
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -1114,6 +1152,14 @@ fn draw_colour_bar(
 const MAX_DEFAULT_IDS: usize = 12;
 
 fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
+    if matches!(a.quantity, Quantity::SettlingVelocity | Quantity::Clusters) {
+        return cloud_series(a);
+    }
+    if !a.with.is_empty() {
+        return input(
+            "--with: other runs are drawn only for --quantity settling-velocity or clusters",
+        );
+    }
     let run = ParticleRun::open(&a.run_dir)?;
     let ids = if a.ids.is_empty() {
         let last = run.read(*run.frames.last().expect("frames are not empty"))?;
@@ -1137,8 +1183,8 @@ fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
     };
     let histories = run.series(&ids)?;
     let component = a.component.unwrap_or(match a.quantity {
-        Quantity::Velocity => Component::Magnitude,
         Quantity::Position => Component::Z,
+        _ => Component::Magnitude,
     });
     let pick = |v: &[f64; 3]| match component {
         Component::X => v[0],
@@ -1146,15 +1192,15 @@ fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
         Component::Z => v[2],
         Component::Magnitude => (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt(),
     };
-    let lines: Vec<(u32, Vec<(f64, f64)>)> = histories
+    let lines: Vec<(String, Vec<(f64, f64)>)> = histories
         .iter()
         .map(|s| {
             let values = match a.quantity {
-                Quantity::Velocity => &s.velocity,
                 Quantity::Position => &s.position,
+                _ => &s.velocity,
             };
             (
-                s.id,
+                format!("id {}", s.id),
                 s.time
                     .iter()
                     .zip(values)
@@ -1164,8 +1210,8 @@ fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
         })
         .collect();
     let (qname, sym) = match a.quantity {
-        Quantity::Velocity => ("velocity", "u"),
         Quantity::Position => ("position", "x"),
+        _ => ("velocity", "u"),
     };
     let cname = match component {
         Component::X => "x",
@@ -1180,10 +1226,10 @@ fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
     register_font()?;
     let unit = &a.length_unit;
     let y_desc = match (a.quantity, component) {
-        (Quantity::Velocity, Component::Magnitude) => format!("|u| ({unit}/s)"),
         (Quantity::Position, Component::Magnitude) => format!("|x| ({unit})"),
-        (Quantity::Velocity, _) => format!("{sym}_{cname} ({unit}/s)"),
         (Quantity::Position, _) => format!("{cname} ({unit})"),
+        (_, Component::Magnitude) => format!("|u| ({unit}/s)"),
+        (_, _) => format!("{sym}_{cname} ({unit}/s)"),
     };
     let id_list: Vec<String> = ids.iter().map(u32::to_string).collect();
     let symbol = y_desc.split(" (").next().unwrap_or_default();
@@ -1195,12 +1241,111 @@ fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
             id_list.join(", ")
         }
     );
+    write_series_csv(a.csv.as_deref(), &lines)?;
     draw_series(&lines, &title, &y_desc, a.size, &out)?;
     Ok(out)
 }
 
+/// The cloud state (`src/cloud.rs`) at every frame of `particles.h5` of a run, in the
+/// fluid box of its `fluid.xdmf`.
+pub fn cloud_history(dir: &Path) -> Result<Vec<CloudState>, PlotError> {
+    let run = ParticleRun::open(dir)?;
+    if !dir.join("fluid.xdmf").is_file() {
+        return input(format!(
+            "RUN_DIR {}: no fluid.xdmf (the cloud quantities need the fluid box for the floor)",
+            dir.display()
+        ));
+    }
+    let grid = FluidRun::open(dir)?.grid;
+    let lower = grid.lower;
+    let upper = [0, 1, 2].map(|d| grid.upper(d));
+    run.frames
+        .iter()
+        .map(|&info| {
+            let f = run.read(info)?;
+            Ok(CloudState::of(
+                info.time,
+                &f.position,
+                &f.radius,
+                &f.velocity,
+                (lower, upper),
+            ))
+        })
+        .collect()
+}
+
+/// `series` of a cloud quantity: one line per run (`RUN_DIR`, then `--with`), labelled
+/// with the run directory's name and its landing time.
+fn cloud_series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
+    if a.component.is_some() || !a.ids.is_empty() {
+        return input(
+            "--component and --ids are for --quantity velocity or position: the cloud quantities take every particle",
+        );
+    }
+    let (qname, y_desc) = match a.quantity {
+        Quantity::Clusters => ("clusters", "clusters".to_string()),
+        _ => (
+            "settling_velocity",
+            format!("mean velocity along gravity ({}/s)", a.length_unit),
+        ),
+    };
+    let mut lines = Vec::new();
+    for dir in std::iter::once(&a.run_dir).chain(&a.with) {
+        let history = cloud_history(dir)?;
+        let samples = history.iter().map(|s| s.sample(a.down));
+        let landing = crate::cloud::landing_time(samples.clone());
+        let name = dir.file_name().map_or_else(
+            || dir.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        let landed = match landing {
+            Some(t) => format!("lands at {} s", fmt_g(t)),
+            None => "not landed".to_string(),
+        };
+        println!("{}: {landed}", dir.display());
+        let points = match a.quantity {
+            Quantity::Clusters => history
+                .iter()
+                .map(|s| (s.time, s.clusters as f64))
+                .collect(),
+            _ => samples.map(|s| (s.time, s.settling_velocity)).collect(),
+        };
+        lines.push((format!("{name} ({landed})"), points));
+    }
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| a.run_dir.join(format!("{qname}.png")));
+    register_font()?;
+    let title = match a.quantity {
+        Quantity::Clusters => "number of clusters of spheres (gap < r/10) against time",
+        _ => "mean settling velocity of the spheres against time",
+    };
+    write_series_csv(a.csv.as_deref(), &lines)?;
+    draw_series(&lines, title, &y_desc, a.size, &out)?;
+    Ok(out)
+}
+
+/// The lines of a series plot as CSV, `line,time,value`, if a file is asked for.
+fn write_series_csv(
+    path: Option<&Path>,
+    lines: &[(String, Vec<(f64, f64)>)],
+) -> Result<(), PlotError> {
+    let Some(path) = path else {
+        return Ok(());
+    };
+    let mut text = String::from("line,time,value\n");
+    for (name, points) in lines {
+        for (t, v) in points {
+            text.push_str(&format!("\"{name}\",{t:e},{v:e}\n"));
+        }
+    }
+    std::fs::write(path, text)
+        .map_err(|e| PlotError::Failed(format!("--csv {}: cannot write: {e}", path.display())))
+}
+
 fn draw_series(
-    lines: &[(u32, Vec<(f64, f64)>)],
+    lines: &[(String, Vec<(f64, f64)>)],
     title: &str,
     y_desc: &str,
     size: (u32, u32),
@@ -1243,7 +1388,7 @@ fn draw_series(
                 colour.stroke_width(2),
             ))
             .map_err(&fail)?
-            .label(format!("id {id}"))
+            .label(id.clone())
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2)));
         if points.len() <= 60 {
             chart

@@ -3,7 +3,8 @@
 //! small hopper has the walls of that hopper, the benchmark hopper of
 //! `shared/bench/lammps-hopper` scaled by s = (20000/50000)^(1/3) (hopper_params.lmp:
 //! outlet radius 0.20 s at z = 0, 45-degree cone), not those of the 50,000-particle one;
-//! and `check` tells in which of them the corrector predicts ahead.
+//! and `check` tells in which of them the corrector predicts ahead; the seed's cloud
+//! cases run a few fluid steps on a coarse grid and report the cloud observables.
 use std::path::{Path, PathBuf};
 
 mod common;
@@ -50,7 +51,7 @@ fn every_case_passes_check() {
     let dir = tempfile::tempdir().expect("temp dir");
     let data = two_spheres(dir.path(), 0.05);
     let cases = cases();
-    assert!(cases.len() >= 16, "cases/ holds the scenes: {cases:?}");
+    assert!(cases.len() >= 19, "cases/ holds the scenes: {cases:?}");
     for case in &cases {
         let (code, stdout, stderr) = check(case, &data);
         assert_eq!(code, 0, "{}: {stderr}", case.display());
@@ -99,5 +100,41 @@ fn check_tells_where_the_corrector_predicts_ahead() {
         let (code, stdout, stderr) = check(&cases.join(case), &data);
         assert_eq!(code, 0, "{case}: {stderr}");
         assert_eq!(stdout.contains(line), ahead, "{case}:\n{stdout}");
+    }
+}
+
+/// The seed's 64-sphere cases start and report the cloud observables: four fluid steps at
+/// level 3 (seconds). Every sphere starts apart (64 clusters, `clusters_max`); the block
+/// has begun to fall.
+#[test]
+fn cloud_cases_run_and_report_the_cloud_observables() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cases = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    for case in ["sedimentation-64.toml", "sedimentation-adhesion.toml"] {
+        let out = dir.path().join(case);
+        let (code, _, stderr) = run_cli(&[
+            "run",
+            cases.join(case).to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--until",
+            "0.01",
+            "--set",
+            "fluid.level=3",
+            "--threads",
+            "1",
+        ]);
+        assert_eq!(code, 0, "{case}: {stderr}");
+        let summary: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("summary.json")).expect("summary.json"),
+        )
+        .expect("json");
+        let o = &summary["observables"];
+        assert_eq!(o["clusters_max"], 64, "{case}: {o}");
+        assert!(
+            o["settling_velocity_final"].as_f64().unwrap() > 0.0,
+            "{case}: {o}"
+        );
+        assert!(o["landing_time"].is_null(), "{case}: {o}");
     }
 }

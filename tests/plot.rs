@@ -632,3 +632,80 @@ fn particles_bad_input_exits_2_naming_the_argument() {
     bad(p(&["--step", "0", "--time", "0"]), &["--step", "--time"]);
     bad(p(&["--size", "50x50"]), &["--size"]);
 }
+
+/// The cloud quantities of `plot series` on the four spheres in the cavity's box: no
+/// contacts (4 clusters in every frame), settling velocity along -z the mean of -v_z,
+/// -1/4 (sphere 1 rises at 1), along x the mean of v_x, 1/8; one line per run with
+/// `--with`, each labelled "not landed" (no gravity, nothing on the floor).
+#[test]
+fn cloud_series_counts_clusters_and_averages_the_velocity_along_gravity() {
+    let r = runs();
+    let csv = r.four_in_box.join("clusters.csv");
+    let (code, stdout, stderr) = run_cli(&[
+        "plot",
+        "series",
+        s(&r.four_in_box),
+        "--quantity",
+        "clusters",
+        "--with",
+        s(&r.four_in_box),
+        "--csv",
+        s(&csv),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(stdout.matches("not landed").count(), 2, "{stdout}");
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    assert_eq!(rows.len(), 2 * 6, "{text}");
+    assert!(rows.iter().all(|l| l.ends_with(",4e0")), "{text}");
+    for (down, expected) in [("-z", -0.25), ("x", 0.125)] {
+        let csv = r.four_in_box.join("settling.csv");
+        let (code, _, stderr) = run_cli(&[
+            "plot",
+            "series",
+            s(&r.four_in_box),
+            "--quantity",
+            "settling-velocity",
+            &format!("--down={down}"),
+            "--csv",
+            s(&csv),
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+        let text = std::fs::read_to_string(&csv).expect("csv");
+        let first: f64 = text
+            .lines()
+            .nth(1)
+            .and_then(|l| l.rsplit(',').next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!((first - expected).abs() < 1e-12, "{down}: {text}");
+    }
+}
+
+/// Bad input to the cloud quantities exits 2 naming the argument or the missing file.
+#[test]
+fn cloud_series_rejects_what_it_cannot_use() {
+    let r = runs();
+    for (args, needle) in [
+        (vec!["--quantity", "clusters", "--ids", "0"], "--ids"),
+        (
+            vec!["--quantity", "velocity", "--with", s(&r.four_in_box)],
+            "--with",
+        ),
+        (
+            vec!["--quantity", "clusters", "--down", "w"],
+            "expected -x, x",
+        ),
+    ] {
+        let mut all = vec!["plot", "series", s(&r.four_in_box)];
+        all.extend(args);
+        let (code, _, stderr) = run_cli(&all);
+        assert_eq!(code, 2, "{all:?}: {stderr}");
+        assert!(stderr.contains(needle), "{all:?}: {stderr}");
+    }
+    // a run without a fluid box has no floor
+    let (code, _, stderr) = run_cli(&["plot", "series", s(&r.four), "--quantity", "clusters"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("fluid.xdmf"), "{stderr}");
+}
