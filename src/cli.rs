@@ -213,6 +213,24 @@ fn check(args: CheckArgs) -> ExitCode {
                         scene.simulation.dt
                     );
                     let p = sim.world.resource::<grainflow_components::Particles>();
+                    let h = grid.h();
+                    let cell = h[0].max(h[1]).max(h[2]);
+                    let d_min = 2.0 * p.radius.iter().copied().fold(f64::INFINITY, f64::min);
+                    let _ = writeln!(
+                        out,
+                        "  particle update {:?}; smallest diameter {:.2} cells",
+                        c.update,
+                        d_min / cell
+                    );
+                    if d_min < 2.0 * cell {
+                        // measured: the cavity case at 0.5 cells per diameter loses its
+                        // contacts within 0.015 s; at 1 cell it runs (docs/seed-cases.md)
+                        let _ = writeln!(
+                            out,
+                            "warning: the smallest particle spans {:.2} fluid cells: below about 2 the fluid grid hardly sees it, and below 1 coupled runs have failed (raise fluid.level)",
+                            d_min / cell
+                        );
+                    }
                     let held = sim.world.get_resource::<grainflow_components::Clamped>();
                     if let Some(tau) = crate::observables::shortest_response_time(p, held, c) {
                         let dt_f = f.dt.unwrap_or(0.0);
