@@ -1,5 +1,6 @@
 //! The `grainflow` command line: `run`, `check` and `plot` (`src/plot.rs`).
 use std::fmt::Write as _;
+use std::io::IsTerminal as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -323,8 +324,10 @@ fn init_tracing(trace: Option<&Path>) -> Option<tracing_chrome::FlushGuard> {
         tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into());
     // The log lines take events only: with no layer asking for spans (no `--trace`), the
     // systems' spans are disabled at their call sites and cost nothing per step.
+    // Colour only on a terminal: a log redirected to a file or a pipe stays plain text.
     let fmt = tracing_subscriber::fmt::layer()
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
         .with_target(false)
         .with_filter(filter.and(filter_fn(|meta| meta.is_event())));
     match trace {

@@ -24,6 +24,7 @@ use std::process::ExitCode;
 use std::sync::OnceLock;
 
 use clap::{Args, Subcommand, ValueEnum};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -1001,6 +1002,29 @@ fn fmt_g(x: f64) -> String {
 type PixelRange = (std::ops::Range<i32>, std::ops::Range<i32>, (f64, f64));
 
 /// Draw the slice; returns the pixel ranges of the plot area and the colour range.
+/// The axes of a map (a contour or a particle view, equal scales): the two axis titles
+/// `descs`, ticks about every 70 pixels across and 45 up the plot area of `pixels`, tick
+/// labels to the digits the axis `spans` need, no grid lines.
+fn draw_map_axes<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    descs: &[String; 2],
+    pixels: (u32, u32),
+    spans: (f64, f64),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(&descs[0])
+        .y_desc(&descs[1])
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .x_labels((pixels.0 as usize / 70).clamp(2, 10))
+        .y_labels((pixels.1 as usize / 45).clamp(2, 12))
+        .x_label_formatter(&|x| tick_label(*x, spans.0))
+        .y_label_formatter(&|y| tick_label(*y, spans.1))
+        .draw()
+}
+
 fn draw_contour(
     slice: &Slice,
     circles: &[([f64; 2], f64)],
@@ -1036,9 +1060,6 @@ fn draw_contour(
     let (top, bottom) = (pad + extra_h / 2, pad + extra_h - extra_h / 2);
     let split = (offset + left_labels + pw + pad).min(bw - 1);
     let (main, bar) = body.split_horizontally(split);
-    let labels = ("sans-serif", 14);
-    let desc = ("sans-serif", 16);
-
     let mut chart = ChartBuilder::on(&main)
         .margin_top(top)
         .margin_bottom(bottom)
@@ -1065,19 +1086,8 @@ fn draw_contour(
         }
     }
     let (du, dv) = (AXES[slice.axes[0]], AXES[slice.axes[1]]);
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_desc(format!("{du} ({unit})"))
-        .y_desc(format!("{dv} ({unit})"))
-        .label_style(labels)
-        .axis_desc_style(desc)
-        .x_labels((pw as usize / 70).clamp(2, 10))
-        .y_labels((ph as usize / 45).clamp(2, 12))
-        .x_label_formatter(&|x| tick_label(*x, lu))
-        .y_label_formatter(&|y| tick_label(*y, lv))
-        .draw()
-        .map_err(&fail)?;
+    let descs = [format!("{du} ({unit})"), format!("{dv} ({unit})")];
+    draw_map_axes(&mut chart, &descs, (pw, ph), (lu, lv)).map_err(&fail)?;
     chart
         .draw_series(circles.iter().map(|&(c, r)| {
             let pts: Vec<(f64, f64)> = (0..=72)
@@ -1712,19 +1722,7 @@ fn draw_particles(
                 }
             }
         }
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc(&labels[0])
-            .y_desc(&labels[1])
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
-            .x_labels((pw as usize / 70).clamp(2, 10))
-            .y_labels((ph as usize / 45).clamp(2, 12))
-            .x_label_formatter(&|x| tick_label(*x, lu))
-            .y_label_formatter(&|y| tick_label(*y, lv))
-            .draw()
-            .map_err(&fail)?;
+        draw_map_axes(&mut chart, labels, (pw, ph), (lu, lv)).map_err(&fail)?;
         let style = TextStyle::from(("sans-serif", 16).into_font())
             .pos(Pos::new(HPos::Center, VPos::Bottom));
         area.draw_text(

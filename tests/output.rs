@@ -1,4 +1,4 @@
-//! Output files a user opens: particles.h5 (one group per frame, rows by stable id, the
+//! Output files a user opens: the log on stderr (plain lines when it is not a terminal), particles.h5 (one group per frame, rows by stable id, the
 //! `time` attribute), the particles.xdmf sidecar whose every data path exists in the HDF5
 //! file, summary.json, the Chrome trace with a span per system, and particles read from a
 //! LAMMPS `atom_style sphere` data file; coupling.csv written fluid step by fluid step.
@@ -140,6 +140,28 @@ fn h5_xdmf_summary_and_trace_are_consistent() {
     ] {
         assert!(trace.contains(system), "trace has a span for {system}");
     }
+}
+
+/// A log that goes to a pipe or a file (here a pipe) holds plain lines, without the
+/// colour escape codes a terminal gets.
+#[test]
+fn a_piped_log_is_plain_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::write_scene(dir.path(), "out.toml", SCENE);
+    std::fs::write(dir.path().join("atoms.data"), DATA).unwrap();
+    let out = common::grainflow()
+        .args(["run", scene.to_str().unwrap(), "--steps", "10", "--out"])
+        .arg(dir.path().join("run"))
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains(" INFO "), "info lines on stderr: {err}");
+    assert!(
+        !err.contains('\u{1b}'),
+        "escape codes in a piped log: {err:?}"
+    );
 }
 
 #[test]

@@ -55,30 +55,34 @@ pub fn largest_damping_rate(lub: &Lubrication, radius: f64, mass: f64) -> f64 {
 /// `lubrication`: adds the correction of every listed pair closer than the range to the
 /// particle forces. Pair forces are computed in parallel and summed in pair order, so the
 /// result does not depend on the thread count. The Verlet list holds every pair within
-/// `r_i + r_j + skin`, and the build makes the skin at least the range.
-pub fn lubrication(lub: Res<Lubrication>, list: Res<VerletList>, mut particles: ResMut<Particles>) {
+/// `r_i + r_j + skin`, and the build makes the skin at least the range. The pair forces
+/// go into a buffer the system keeps between substeps (no allocation per step).
+pub fn lubrication(
+    lub: Res<Lubrication>,
+    list: Res<VerletList>,
+    mut particles: ResMut<Particles>,
+    mut forces: Local<Vec<(u32, u32, [f64; 3])>>,
+) {
     let _span = tracing::info_span!("lubrication").entered();
     let p = &*particles;
-    let forces: Vec<(u32, u32, [f64; 3])> = (0..list.pairs())
-        .into_par_iter()
-        .filter_map(|k| {
-            let (i, j) = (list.owner[k] as usize, list.neighbours[k] as usize);
-            let d = [0, 1, 2].map(|a| p.position[a][j] - p.position[a][i]);
-            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let gap = dist - p.radius[i] - p.radius[j];
-            let c = lubrication_coefficient(&lub, p.radius[i], p.radius[j], gap);
-            if c == 0.0 || dist == 0.0 {
-                return None;
-            }
-            let n = d.map(|x| x / dist);
-            let approach: f64 = (0..3)
-                .map(|a| (p.velocity[a][i] - p.velocity[a][j]) * n[a])
-                .sum();
-            Some((i as u32, j as u32, n.map(|x| -c * approach * x)))
-        })
-        .collect();
+    forces.clear();
+    forces.par_extend((0..list.pairs()).into_par_iter().filter_map(|k| {
+        let (i, j) = (list.owner[k] as usize, list.neighbours[k] as usize);
+        let d = [0, 1, 2].map(|a| p.position[a][j] - p.position[a][i]);
+        let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let gap = dist - p.radius[i] - p.radius[j];
+        let c = lubrication_coefficient(&lub, p.radius[i], p.radius[j], gap);
+        if c == 0.0 || dist == 0.0 {
+            return None;
+        }
+        let n = d.map(|x| x / dist);
+        let approach: f64 = (0..3)
+            .map(|a| (p.velocity[a][i] - p.velocity[a][j]) * n[a])
+            .sum();
+        Some((i as u32, j as u32, n.map(|x| -c * approach * x)))
+    }));
     let force = &mut particles.force;
-    for (i, j, f) in forces {
+    for &(i, j, f) in forces.iter() {
         for a in 0..3 {
             force[a][i as usize] += f[a];
             force[a][j as usize] -= f[a];
