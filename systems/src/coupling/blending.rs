@@ -5,7 +5,8 @@
 //! The faces of the cells a particle's surface cuts that lie outside every particle
 //! ([`CellMarkers::blend_faces`], from [`super::markers`]) are set to
 //! `u = (1 - phi) u + phi U(x)` with `phi = exp(-alpha Re_p)`, `Re_p = 2 r |U(x) - u| / nu`
-//! and the particle's rigid-body velocity `U(x)`, before the step (so the update enters
+//! and the particle's rigid-body velocity `U(x) = U + w x (x - x_p)` (the arm by minimum
+//! image across periodic sides, [`super::Wrap`]), before the step (so the update enters
 //! the step as its old velocity). The momentum this moves, `rho_f m_f (u_old - u_new) /
 //! dt_F` per face with the lumped mass `m_f`, is the particle's
 //! (`HydroForces::blending_force`, added to the sampled force), so the exchange conserves
@@ -16,7 +17,7 @@
 use bevy_ecs::prelude::*;
 use grainflow_components::{CellMarkers, Coupling, HydroForces, Particles};
 
-use super::{add_force, rigid_velocity};
+use super::{add_force, rigid_velocity, Wrap};
 use crate::fluid::FluidFlow;
 
 /// `velocity_blending`: the smooth transition on the faces to blend, its momentum booked
@@ -32,6 +33,7 @@ pub fn velocity_blending(
     let alpha = coupling.alpha.expect("a scene that blends");
     let grid = flow.solver.grid().clone();
     let lay = grid.layout();
+    let wrap = Wrap::new(&grid);
     let momentum_rate = coupling.fluid_density * grid.cell_volume() / 6.0 / flow.dt;
     let u = &mut flow.solver.u;
     let HydroForces {
@@ -45,9 +47,10 @@ pub fn velocity_blending(
     for &(idx, i) in &markers.blend_faces {
         let idx = idx as usize;
         let (a, f) = lay.face_of(idx);
-        let x = grid.face_centre(a, f);
         let i = i as usize;
-        let v = rigid_velocity(&particles, i, x);
+        let xp = [0, 1, 2].map(|d| particles.position[d][i]);
+        let arm = wrap.arm(grid.face_centre(a, f), xp);
+        let v = rigid_velocity(&particles, i, arm);
         let slip = (0..3)
             .map(|d| (v[d] - u[d][idx]).powi(2))
             .sum::<f64>()
@@ -56,7 +59,6 @@ pub fn velocity_blending(
         let phi = (-alpha * re_p).exp();
         let share = momentum_rate * lay.face_cells(a, f).iter().flatten().count() as f64;
         let df = [0, 1, 2].map(|d| share * phi * (u[d][idx] - v[d]));
-        let arm = [0, 1, 2].map(|d| x[d] - particles.position[d][i]);
         let (mut force, mut torque) = ([0.0; 3], [0.0; 3]);
         add_force(&mut force, &mut torque, arm, df);
         for d in 0..3 {

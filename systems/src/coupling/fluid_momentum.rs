@@ -8,7 +8,7 @@
 use grainflow_components::{ParticleFace, Particles};
 use grainflow_fluid::NavierStokes;
 
-use super::add_force;
+use super::{add_force, Wrap};
 
 /// Force and torque on every particle from the momentum that the fluid faces inside it
 /// gained over the fluid step of length `dt_f` ([`ParticleUpdate::FluidMomentum`]).
@@ -20,7 +20,8 @@ use super::add_force;
 /// the particle with lumped mass `M_f` and start velocity `u_f^0 = U + w x (x_f - x_p)`:
 /// `F = rho_f sum_f M_f (u_f - u_f^0 + (R(w dt_F) - I) u_f^0) / dt_F`, the convective term
 /// integrated over the step as the rigid rotation it is ([`rigid_rotation_change`]), and
-/// the torque of the same terms about `x_p` (Sharma & Patankar 2005, J. Comput. Phys. 205:439, the particle's
+/// the torque of the same terms about `x_p`, with the arms `x_f - x_p` by minimum image
+/// across periodic sides ([`super::Wrap`]) (Sharma & Patankar 2005, J. Comput. Phys. 205:439, the particle's
 /// momentum from the fluid's inside it). Without the convective term a sphere carried
 /// by a rigidly rotating flow feels no centripetal force and spirals out
 /// (tests/neutral_buoyancy.rs). The faces are summed in face order: the result does not
@@ -37,12 +38,13 @@ pub fn fluid_momentum_force(
     let grid = ns.grid();
     let lay = grid.layout();
     let ml = ns.lumped_mass();
+    let wrap = Wrap::new(grid);
     let mut ft = vec![([0.0; 3], [0.0; 3]); particles.len()];
     for pf in faces {
         let (idx, i) = (pf.face as usize, pf.row as usize);
         let (a, f) = lay.face_of(idx);
-        let x = grid.face_centre(a, f);
-        let arm = [0, 1, 2].map(|d| x[d] - particles.position[d][i]);
+        let xp = [0, 1, 2].map(|d| particles.position[d][i]);
+        let arm = wrap.arm(grid.face_centre(a, f), xp);
         let m = fluid_density * ml[idx];
         let w = [0, 1, 2].map(|d| particles.angular_velocity[d][i]);
         let turned = rigid_rotation_change(w, pf.start, dt_f);

@@ -19,10 +19,18 @@
 //! * when the scene blends, the other faces of each particle's boundary cells, for the
 //!   smooth transition ([`super::blending`]).
 //!
+//! Along a periodic direction of the fluid (length `L`) the DEM particles do not wrap: a
+//! particle may move past the periodic side and sees the flow at its image in the box
+//! ([`super::Wrap`]). Its centre is taken modulo `L`, its cell index ranges run past 0 or
+//! `n` and wrap modulo `n`, and the arms `x - x_p` of cells and faces are minimum images,
+//! so a sphere straddling a periodic side is marked on both sides, each face inside it
+//! getting `U + w x (x - x_p)` with its arm across the side.
+//!
 //! A particle the grid cannot represent stops the run ([`outside_the_fluid`]): one
-//! whose centre has left the fluid box (it would feel no fluid), or one whose marked cells
-//! would reach across a periodic side (the marking does not wrap). A sphere may reach past
-//! a wall, inflow or outflow side: the side's condition holds on its faces.
+//! whose centre has left the fluid box through a non-periodic side (it would feel no
+//! fluid), or one whose marked cells reach half way round a periodic direction (they would
+//! meet their own image). A sphere may reach past a wall, inflow or outflow side: the
+//! side's condition holds on its faces.
 //!
 //! [`ParticleUpdate::Prescribed`]: grainflow_components::ParticleUpdate::Prescribed
 //! [`ParticleUpdate::FluidMomentum`]: grainflow_components::ParticleUpdate::FluidMomentum
@@ -32,7 +40,7 @@ use grainflow_components::{
 };
 use grainflow_fluid::Grid;
 
-use super::{cell_range, holds_faces, rigid_velocity};
+use super::{holds_faces, rigid_velocity, Wrap};
 use crate::fluid::FluidFlow;
 
 /// `cell_markers`: the markers, the faces inside the particles with their rigid-body
@@ -49,7 +57,7 @@ pub fn cell_markers(
     let _span = tracing::info_span!("cell_markers").entered();
     let grid = flow.solver.grid().clone();
     let lay = grid.layout();
-    let (h, lower, n) = (grid.h(), grid.lower, lay.n);
+    let wrap = Wrap::new(&grid);
     let half_diagonal = half_cell_diagonal(&grid);
     if health.failure.is_none() {
         if let Some((_, what)) = outside_the_fluid(&grid, &particles) {
@@ -86,14 +94,14 @@ pub fn cell_markers(
     for i in 0..particles.len() {
         let p = i as i32 + 1;
         let r = particles.radius[i];
-        let xp = [0, 1, 2].map(|d| particles.position[d][i]);
-        let range = cell_range(lower, h, n, xp, r + half_diagonal);
+        let xp = wrap.image([0, 1, 2].map(|d| particles.position[d][i]));
+        let range = wrap.cells(xp, r + half_diagonal);
         for k in range[2].0..range[2].1 {
             for j in range[1].0..range[1].1 {
                 for ci in range[0].0..range[0].1 {
-                    let c = [ci, j, k];
-                    let xc = grid.cell_centre(c);
-                    let dist = (0..3).map(|d| (xc[d] - xp[d]).powi(2)).sum::<f64>().sqrt();
+                    let c = wrap.index([ci, j, k]);
+                    let rc = wrap.arm(grid.cell_centre(c), xp);
+                    let dist = rc.iter().map(|v| v.powi(2)).sum::<f64>().sqrt();
                     let m = if dist + half_diagonal <= r {
                         -p
                     } else if dist - half_diagonal < r {
@@ -111,12 +119,12 @@ pub fn cell_markers(
                     }
                     for a in 0..3 {
                         for f in [c, lay.upper(a, c)] {
-                            let x = grid.face_centre(a, f);
+                            let rf = wrap.arm(grid.face_centre(a, f), xp);
                             let idx = lay.face(a, f);
                             if box_mask[idx] {
                                 continue; // the box's boundary condition holds
                             }
-                            let d2 = (0..3).map(|d| (x[d] - xp[d]).powi(2)).sum::<f64>();
+                            let d2 = rf.iter().map(|v| v.powi(2)).sum::<f64>();
                             if d2 < r * r {
                                 let depth = r - d2.sqrt();
                                 inside.push((idx as u32, !depth.to_bits(), i as u32));
@@ -135,8 +143,8 @@ pub fn cell_markers(
     inside.dedup_by_key(|&mut (face, _, _)| face);
     for &(idx, _, i) in &inside {
         let (a, f) = lay.face_of(idx as usize);
-        let x = grid.face_centre(a, f);
-        let v = rigid_velocity(&particles, i as usize, x);
+        let xp = [0, 1, 2].map(|d| particles.position[d][i as usize]);
+        let v = rigid_velocity(&particles, i as usize, wrap.arm(grid.face_centre(a, f), xp));
         for (u, v) in flow.solver.u.iter_mut().zip(v) {
             u[idx as usize] = v;
         }
@@ -168,37 +176,49 @@ fn half_cell_diagonal(grid: &Grid) -> f64 {
 }
 
 /// The first particle (in row order) that the grid cannot represent, if any: its centre
-/// outside the fluid box, or its marked cells (the sphere plus half a cell diagonal)
-/// reaching across a periodic side: its row, and a message naming it by its id, its
-/// centre and radius, and the side.
+/// outside the fluid box through a non-periodic side (`x_p < x_0` or `x_p > x_1`), or,
+/// along a periodic direction of length `L`, its marked cells (the sphere plus half a cell
+/// diagonal) reaching half way round the box (`r + h_diag / 2 >= L / 2`: they would meet
+/// their own periodic image, and the minimum-image arms of [`super::Wrap`] would be
+/// ambiguous). A centre past a periodic side is not a failure: the particle sees the flow
+/// at its image in the box, and its marked cells wrap. Returns its row, and a message
+/// naming it by its id, its centre and radius, and the side (or the direction).
 pub fn outside_the_fluid(grid: &Grid, particles: &Particles) -> Option<(usize, String)> {
     let half_diagonal = half_cell_diagonal(grid);
     (0..particles.len()).find_map(|i| {
         let r = particles.radius[i];
         let xp = [0, 1, 2].map(|d| particles.position[d][i]);
-        let side = (0..3).find_map(|d| {
-            let periodic = grid.periodic(d);
-            let reach = if periodic { r + half_diagonal } else { 0.0 };
+        let what = (0..3).find_map(|d| {
             let axis = ["x", "y", "z"][d];
-            if xp[d] - reach < grid.lower[d] {
-                Some((axis, "min", periodic))
-            } else if xp[d] + reach > grid.upper[d] {
-                Some((axis, "max", periodic))
+            if grid.periodic(d) {
+                let length = grid.upper[d] - grid.lower[d];
+                (r + half_diagonal >= 0.5 * length).then(|| {
+                    format!(
+                        "periodic direction {axis}: its marked cells reach half way round the \
+                         box (radius plus half a cell diagonal {:.4e} against half the box \
+                         length {:.4e}) and would meet their own periodic image",
+                        r + half_diagonal,
+                        0.5 * length
+                    )
+                })
             } else {
-                None
+                let end = if xp[d] < grid.lower[d] {
+                    "min"
+                } else if xp[d] > grid.upper[d] {
+                    "max"
+                } else {
+                    return None;
+                };
+                Some(format!(
+                    "side {axis}{end}: its centre has left the fluid box (it would feel no fluid)"
+                ))
             }
         })?;
-        let (axis, end, periodic) = side;
-        let what = if periodic {
-            "its marked cells reach across the periodic side (the cell markers do not wrap)"
-        } else {
-            "its centre has left the fluid box (it would feel no fluid)"
-        };
         Some((
             i,
             format!(
                 "particle {} (centre ({:.4e}, {:.4e}, {:.4e}), radius {:.4e}) at the fluid \
-                 side {axis}{end}: {what}",
+                 {what}",
                 particles.id[i], xp[0], xp[1], xp[2], r
             ),
         ))

@@ -24,9 +24,22 @@
 //! constant, to the contact forces (`m dU/dt = (rho - rho_f) V g + F_p + F_f`,
 //! `I dw/dt = T_p + T_f`): the coupling is explicit in the particle velocity.
 //!
+//! # Periodic sides
+//!
+//! Along a periodic direction of the fluid (both sides `periodic`, box length `L`) the
+//! coupling wraps, while the DEM particles do not (a particle that moves through the side
+//! keeps its position outside `[x_0, x_1)`): every job takes the particle's centre modulo
+//! `L` (it sees the flow at its image in the box), lets the cell index ranges of a sphere
+//! run past 0 or `n` and maps them modulo `n`, so a sphere straddling the side is marked
+//! and sampled on both sides, and takes the arms `x - x_p` of cells, faces and force
+//! points by minimum image ([`Wrap`], the one helper they share). A run stops only for a
+//! centre that leaves the box through a non-periodic side, or for a sphere that would
+//! meet its own image ([`markers::outside_the_fluid`]).
+//!
 //! This module holds the helpers its files share; each job has its own file.
 use bevy_ecs::prelude::*;
 use grainflow_components::{Clamped, Coupling, ParticleUpdate, Particles};
+use grainflow_fluid::Grid;
 
 pub mod blending;
 pub mod fluid_momentum;
@@ -69,24 +82,100 @@ pub fn holds_faces(coupling: &Coupling, clamped: Option<&Clamped>, i: usize) -> 
     coupling.update == ParticleUpdate::Prescribed || clamped.is_some_and(|c| c.held[i])
 }
 
-/// Index ranges `[lo, hi)` per direction of the cells that the box `x_p +- reach` meets.
-pub fn cell_range(
+/// The periodic wrap of the fluid grid, shared by every coupling job. The fluid is
+/// periodic along a direction whose two sides are `periodic` (box length `L`); the DEM
+/// particles do not wrap, so a particle may sit anywhere along it and sees the flow at its
+/// image in the box. Along the other directions positions and indices pass unchanged.
+///
+/// * [`Wrap::image`]: the position in the box, `x_0 + (x - x_0) mod L` (unchanged when it
+///   already lies in `[x_0, x_1)`);
+/// * [`Wrap::arm`]: the minimum image of `x - x_p`, `d - L round(d / L)`, the arm of a
+///   point within `L / 2` of the particle across the periodic sides;
+/// * [`Wrap::cells`]: the cell index ranges a box about a point meets, running past 0 or
+///   `n` along a periodic direction, and [`Wrap::index`] maps such an index into the
+///   grid (modulo `n`), so a sphere straddling a periodic side covers the cells on both.
+///
+/// The arms are exact while every marked cell lies within `L / 2` of the sphere's centre,
+/// which [`markers::outside_the_fluid`] requires.
+#[derive(Debug, Clone, Copy)]
+pub struct Wrap {
     lower: [f64; 3],
+    upper: [f64; 3],
     h: [f64; 3],
     n: [usize; 3],
-    x: [f64; 3],
-    reach: f64,
-) -> [(usize, usize); 3] {
-    [0, 1, 2].map(|d| {
-        let lo = ((x[d] - reach - lower[d]) / h[d]).floor().max(0.0) as usize;
-        let hi = (((x[d] + reach - lower[d]) / h[d]).floor() + 1.0).max(0.0) as usize;
-        (lo.min(n[d]), hi.min(n[d]))
-    })
+    periodic: [bool; 3],
 }
 
-/// Rigid-body velocity `U + w x (x - x_p)` of particle `i` at `x`.
-pub fn rigid_velocity(particles: &Particles, i: usize, x: [f64; 3]) -> [f64; 3] {
-    let r = [0, 1, 2].map(|d| x[d] - particles.position[d][i]);
+impl Wrap {
+    /// The wrap of `grid`'s periodic directions.
+    pub fn new(grid: &Grid) -> Self {
+        Wrap {
+            lower: grid.lower,
+            upper: grid.upper,
+            h: grid.h(),
+            n: grid.n(),
+            periodic: [0, 1, 2].map(|d| grid.periodic(d)),
+        }
+    }
+
+    /// The image of `x` in the box: `x_0 + (x - x_0) mod L` along the periodic directions
+    /// outside `[x_0, x_1)`, `x` otherwise.
+    pub fn image(&self, x: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|d| {
+            if self.periodic[d] && !(self.lower[d] <= x[d] && x[d] < self.upper[d]) {
+                self.lower[d] + (x[d] - self.lower[d]).rem_euclid(self.upper[d] - self.lower[d])
+            } else {
+                x[d]
+            }
+        })
+    }
+
+    /// The arm `x - x_p`, along the periodic directions by minimum image:
+    /// `d - L round(d / L)` (unchanged for `|d| < L / 2`).
+    pub fn arm(&self, x: [f64; 3], xp: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|d| {
+            let r = x[d] - xp[d];
+            if self.periodic[d] {
+                let length = self.upper[d] - self.lower[d];
+                r - length * (r / length).round()
+            } else {
+                r
+            }
+        })
+    }
+
+    /// Index ranges `[lo, hi)` per direction of the cells that the box `x +- reach` meets:
+    /// clamped to `[0, n]` along a non-periodic direction, running past them along a
+    /// periodic one (map the indices with [`Wrap::index`]).
+    pub fn cells(&self, x: [f64; 3], reach: f64) -> [(isize, isize); 3] {
+        [0, 1, 2].map(|d| {
+            let lo = ((x[d] - reach - self.lower[d]) / self.h[d]).floor();
+            let hi = ((x[d] + reach - self.lower[d]) / self.h[d]).floor() + 1.0;
+            if self.periodic[d] {
+                (lo as isize, hi as isize)
+            } else {
+                let n = self.n[d] as isize;
+                ((lo.max(0.0) as isize).min(n), (hi.max(0.0) as isize).min(n))
+            }
+        })
+    }
+
+    /// Cell (or face) coordinates of the index `c` from [`Wrap::cells`]: `c mod n` along
+    /// the periodic directions.
+    pub fn index(&self, c: [isize; 3]) -> [usize; 3] {
+        [0, 1, 2].map(|d| {
+            if self.periodic[d] {
+                c[d].rem_euclid(self.n[d] as isize) as usize
+            } else {
+                c[d] as usize
+            }
+        })
+    }
+}
+
+/// Rigid-body velocity `U + w x r` of particle `i` at arm `r = x - x_p` (by minimum
+/// image, [`Wrap::arm`]).
+pub fn rigid_velocity(particles: &Particles, i: usize, r: [f64; 3]) -> [f64; 3] {
     let w = [0, 1, 2].map(|d| particles.angular_velocity[d][i]);
     let cross = [
         w[1] * r[2] - w[2] * r[1],

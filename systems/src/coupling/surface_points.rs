@@ -11,10 +11,13 @@ use grainflow_components::Coupling;
 use grainflow_fluid::sample::{cell_at, cell_stress};
 use grainflow_fluid::Grid;
 
-use super::add_force;
+use super::{add_force, Wrap};
 
 /// Force and torque on a sphere (centre `xp`, radius `r`) from the flow `u`, `p` (density 1)
-/// by the surface force points of `coupling.rule`, scaled by the fluid density.
+/// by the surface force points of `coupling.rule`, scaled by the fluid density. Along a
+/// periodic direction the centre and each force point are taken modulo the box length
+/// (the point's cell is the one holding its image, [`super::Wrap`]); the arms stay
+/// `r n_i`.
 pub fn surface_point_force(
     grid: &Grid,
     u: [&[f64]; 3],
@@ -24,9 +27,11 @@ pub fn surface_point_force(
     r: f64,
 ) -> ([f64; 3], [f64; 3]) {
     let j = 4.0 * std::f64::consts::PI * r * r * coupling.fluid_density;
+    let wrap = Wrap::new(grid);
+    let xp = wrap.image(xp);
     let (mut f, mut t) = ([0.0; 3], [0.0; 3]);
     for (n, w) in coupling.rule.direction.iter().zip(&coupling.rule.weight) {
-        let x = [0, 1, 2].map(|d| xp[d] + r * n[d]);
+        let x = wrap.image([0, 1, 2].map(|d| xp[d] + r * n[d]));
         let s = fluid_stress(grid, u, p, coupling.viscosity, cell_at(grid, x), xp, r);
         let df = [0, 1, 2].map(|i| j * w * (0..3).map(|k| s[i][k] * n[k]).sum::<f64>());
         add_force(&mut f, &mut t, [r * n[0], r * n[1], r * n[2]], df);
@@ -34,9 +39,11 @@ pub fn surface_point_force(
     (f, t)
 }
 
-/// Fluid fraction of cell `c` outside the sphere (`xp`, `r`), from 4^3 sample points.
+/// Fluid fraction of cell `c` outside the sphere (`xp`, `r`), from 4^3 sample points
+/// (their distance from `xp` by minimum image across periodic sides).
 pub fn fluid_fraction(grid: &Grid, c: [usize; 3], xp: [f64; 3], r: f64) -> f64 {
     let h = grid.h();
+    let wrap = Wrap::new(grid);
     let lo = [0, 1, 2].map(|d| grid.lower[d] + c[d] as f64 * h[d]);
     let mut outside = 0;
     for k in 0..4 {
@@ -47,7 +54,7 @@ pub fn fluid_fraction(grid: &Grid, c: [usize; 3], xp: [f64; 3], r: f64) -> f64 {
                     lo[1] + (j as f64 + 0.5) * 0.25 * h[1],
                     lo[2] + (k as f64 + 0.5) * 0.25 * h[2],
                 ];
-                let d2: f64 = (0..3).map(|d| (x[d] - xp[d]).powi(2)).sum();
+                let d2: f64 = wrap.arm(x, xp).iter().map(|v| v.powi(2)).sum();
                 outside += (d2 >= r * r) as u32;
             }
         }

@@ -13,14 +13,16 @@
 use grainflow_components::Coupling;
 use grainflow_fluid::NavierStokes;
 
-use super::{add_force, cell_range};
+use super::{add_force, Wrap};
 
 /// Force and torque on a sphere by the volume integral of the fictitious boundary
 /// method, `F = -int sigma . grad(alpha_h)`, evaluated with the discrete operators
 /// (module docs): minus the momentum residual `R` of the flow solver
 /// ([`NavierStokes::momentum_residual_at`], computed at the faces inside the sphere
 /// only) summed over those faces, scaled by the fluid density; torque
-/// `-sum (x_f - x_p) x R_f`.
+/// `-sum (x_f - x_p) x R_f`. Along a periodic direction the centre is taken modulo the
+/// box length and the faces of a sphere straddling the side are found on both sides, with
+/// minimum-image arms ([`super::Wrap`]).
 pub fn volume_integral_force(
     ns: &NavierStokes,
     coupling: &Coupling,
@@ -29,22 +31,22 @@ pub fn volume_integral_force(
 ) -> ([f64; 3], [f64; 3]) {
     let grid = ns.grid();
     let lay = grid.layout();
-    let h = grid.h();
-    let range = cell_range(grid.lower, h, lay.n, xp, r);
+    let wrap = Wrap::new(grid);
+    let xp = wrap.image(xp);
+    let range = wrap.cells(xp, r);
     let mut faces = Vec::new();
     let mut arms = Vec::new();
     for a in 0..3 {
         // the a-faces of the cells in range: lower faces, plus the upper layer
         let mut hi = [range[0].1, range[1].1, range[2].1];
         if !lay.periodic[a] {
-            hi[a] = (hi[a] + 1).min(lay.n[a] + 1);
+            hi[a] = (hi[a] + 1).min(lay.n[a] as isize + 1);
         }
-        for k in range[2].0..hi[2].min(lay.fdim[a][2]) {
-            for j in range[1].0..hi[1].min(lay.fdim[a][1]) {
-                for i in range[0].0..hi[0].min(lay.fdim[a][0]) {
-                    let fc = [i, j, k];
-                    let x = grid.face_centre(a, fc);
-                    let arm = [0, 1, 2].map(|d| x[d] - xp[d]);
+        for k in range[2].0..hi[2] {
+            for j in range[1].0..hi[1] {
+                for i in range[0].0..hi[0] {
+                    let fc = wrap.index([i, j, k]);
+                    let arm = wrap.arm(grid.face_centre(a, fc), xp);
                     if arm.iter().map(|v| v * v).sum::<f64>() < r * r {
                         faces.push((a, fc));
                         arms.push(arm);
