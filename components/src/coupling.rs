@@ -35,11 +35,13 @@ pub enum ParticleUpdate {
 }
 
 /// A fluid face inside a particle under [`ParticleUpdate::FluidMomentum`]: its index,
-/// the particle's row, and the rigid-body velocity it started the fluid step with.
+/// the particle's row and id (the row may change before the next fluid step, the id
+/// does not), and the rigid-body velocity it started the fluid step with.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParticleFace {
     pub face: u32,
     pub row: u32,
+    pub id: u32,
     pub start: [f64; 3],
 }
 
@@ -93,10 +95,11 @@ pub struct CellMarkers {
 pub struct HydroForces {
     pub force: Columns,
     pub torque: Columns,
-    /// Momentum per time that the last velocity blending moved from the fluid to each
-    /// particle (added to `force` and `torque` when they are sampled).
-    pub blending_force: Columns,
-    pub blending_torque: Columns,
+    /// Momentum per time moved between the fluid and each particle before the last fluid
+    /// step, by the faces that entered and left it (fluid-momentum update) and by the
+    /// velocity blending; added to `force` and `torque` when they are sampled.
+    pub exchange_force: Columns,
+    pub exchange_torque: Columns,
     /// Fluid steps whose forces have been sampled.
     pub sampled_steps: u64,
 }
@@ -106,8 +109,8 @@ impl HydroForces {
         self.force
             .iter_mut()
             .chain(self.torque.iter_mut())
-            .chain(self.blending_force.iter_mut())
-            .chain(self.blending_torque.iter_mut())
+            .chain(self.exchange_force.iter_mut())
+            .chain(self.exchange_torque.iter_mut())
     }
 }
 

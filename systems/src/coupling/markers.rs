@@ -13,8 +13,9 @@
 //!   `u(x) = U + w x (x - x_p)`. Under [`ParticleUpdate::Prescribed`] (and for fixed
 //!   particles) it joins the solver's mask of prescribed faces (the fictitious boundary
 //!   condition of Wan & Turek 2006; the solver keeps masked faces at their value through
-//!   the step); under [`ParticleUpdate::FluidMomentum`] it only starts the step there.
-//!   A face inside several particles (overlapping spheres) belongs to the one it lies
+//!   the step); under [`ParticleUpdate::FluidMomentum`] it only starts the step there,
+//!   and the momentum of the faces that entered and left the particle since the last
+//!   step is booked to it first ([`super::face_exchange`]). A face inside several particles (overlapping spheres) belongs to the one it lies
 //!   deepest in.
 //! * when the scene blends, the other faces of each particle's boundary cells, for the
 //!   smooth transition ([`super::blending`]).
@@ -36,23 +37,24 @@
 //! [`ParticleUpdate::FluidMomentum`]: grainflow_components::ParticleUpdate::FluidMomentum
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    CellMarkers, Clamped, Coupling, ParticleFace, Particles, RunHealth, SimClock,
+    CellMarkers, Clamped, Coupling, HydroForces, ParticleFace, Particles, RunHealth, SimClock,
 };
 use grainflow_fluid::Grid;
 
+use super::face_exchange::book_face_exchange;
 use super::{holds_faces, rigid_velocity, Wrap};
 use crate::fluid::FluidFlow;
 
 /// `cell_markers`: the markers, the faces inside the particles with their rigid-body
 /// velocity, and the faces to blend, before each fluid step (see the module docs).
 pub fn cell_markers(
-    clock: Res<SimClock>,
+    (clock, mut health): (Res<SimClock>, ResMut<RunHealth>),
     coupling: Res<Coupling>,
     particles: Res<Particles>,
     clamped: Option<Res<Clamped>>,
     mut markers: ResMut<CellMarkers>,
     mut flow: ResMut<FluidFlow>,
-    mut health: ResMut<RunHealth>,
+    mut hydro: ResMut<HydroForces>,
 ) {
     let _span = tracing::info_span!("cell_markers").entered();
     let grid = flow.solver.grid().clone();
@@ -84,7 +86,7 @@ pub fn cell_markers(
     }
     marked.clear();
     let released = std::mem::take(rigid_faces);
-    particle_faces.clear();
+    let carried = std::mem::take(particle_faces);
     blend_faces.clear();
     let blending = coupling.alpha.is_some();
     // (face, depth r - |x - x_p| as ordered bits, particle row) of every face inside a
@@ -141,6 +143,19 @@ pub fn cell_markers(
     // particle (positive depths order as their bits; the complement sorts deepest first)
     inside.sort_unstable();
     inside.dedup_by_key(|&mut (face, _, _)| face);
+    let free_inside: Vec<(u32, u32)> = inside
+        .iter()
+        .filter(|&&(_, _, i)| !holds_faces(&coupling, clamped.as_deref(), i as usize))
+        .map(|&(idx, _, i)| (idx, i))
+        .collect();
+    book_face_exchange(
+        &carried,
+        &free_inside,
+        &particles,
+        &coupling,
+        &flow,
+        &mut hydro,
+    );
     for &(idx, _, i) in &inside {
         let (a, f) = lay.face_of(idx as usize);
         let xp = [0, 1, 2].map(|d| particles.position[d][i as usize]);
@@ -154,6 +169,7 @@ pub fn cell_markers(
             particle_faces.push(ParticleFace {
                 face: idx,
                 row: i,
+                id: particles.id[i as usize],
                 start: v,
             });
         }

@@ -8,12 +8,13 @@
 //! dt_D' = dt_F / n_s ([`subcycles`]). `schedule.rs` runs the fluid step inside the first
 //! of them, between its contact forces and its corrector:
 //!
-//! 1. before the flow step ([`markers`], [`blending`]): the level-set cell markers of
-//!    every particle, the rigid-body velocity `U + w x (x - x_p)` on every face whose
-//!    centre lies inside a particle (held through the step, the fictitious boundary of
-//!    Wan & Turek 2006, or only its start under the fluid-momentum update), and, when the
-//!    scene sets `alpha`, the smooth transition of Luo et al. (2007) on the other faces of
-//!    the cells the surfaces cut;
+//! 1. before the flow step ([`markers`], [`face_exchange`], [`blending`]): the level-set
+//!    cell markers of every particle, the rigid-body velocity `U + w x (x - x_p)` on
+//!    every face whose centre lies inside a particle (held through the step, the
+//!    fictitious boundary of Wan & Turek 2006, or only its start under the fluid-momentum
+//!    update, with the momentum of the faces that entered and left a free particle since
+//!    the last step booked to it), and, when the scene sets `alpha`, the smooth
+//!    transition of Luo et al. (2007) on the other faces of the cells the surfaces cut;
 //! 2. the flow step (`crate::fluid`): one Navier-Stokes step of dt_F;
 //! 3. after the flow step ([`sampling`]): the hydrodynamic force and torque of every
 //!    particle from the new flow, by [`surface_points`] (the seed's Lebedev-Laikov force
@@ -42,6 +43,7 @@ use grainflow_components::{Clamped, Coupling, ParticleUpdate, Particles};
 use grainflow_fluid::Grid;
 
 pub mod blending;
+pub mod face_exchange;
 pub mod fluid_momentum;
 pub mod lebedev;
 pub mod lubrication;

@@ -59,8 +59,8 @@ pub fn hydrodynamic_sampling(
         .collect();
     for (i, (f, t)) in ft.iter().enumerate() {
         for d in 0..3 {
-            hydro.force[d][i] = f[d] + hydro.blending_force[d][i];
-            hydro.torque[d][i] = t[d] + hydro.blending_torque[d][i];
+            hydro.force[d][i] = f[d] + hydro.exchange_force[d][i];
+            hydro.torque[d][i] = t[d] + hydro.exchange_torque[d][i];
         }
     }
 }
