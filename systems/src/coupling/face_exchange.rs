@@ -44,6 +44,9 @@ pub fn book_face_exchange(
     for col in exchange_force.iter_mut().chain(exchange_torque.iter_mut()) {
         col.fill(0.0);
     }
+    if carried.is_empty() {
+        return; // no free particle had faces: nothing entered or left one
+    }
     let grid = flow.solver.grid();
     let lay = grid.layout();
     let wrap = Wrap::new(grid);
