@@ -4,12 +4,15 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use grainflow_fluid::{
-    Boundaries, BoundaryKind, Grid, GridError, NavierStokes, NsConfig, TimeScheme, ViscousForm,
+    Boundaries, BoundaryKind, Grid, GridError, NavierStokes, NsConfig, PressureForce, TimeScheme,
+    ViscousForm,
 };
 
 use grainflow_systems::fluid::{FluidFlow, FluidStats};
 
-use crate::scene::{Fluid, FluidBoundary, FluidScheme, FluidViscous, InflowProfile, SceneError};
+use crate::scene::{
+    Fluid, FluidBoundary, FluidPressureForce, FluidScheme, FluidViscous, InflowProfile, SceneError,
+};
 
 /// Coarse cells of the fluid box: `cells`, or the box divided by `cell_size`.
 pub fn coarse_cells(f: &Fluid) -> [usize; 3] {
@@ -131,9 +134,10 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
     );
     let _ = writeln!(
         out,
-        "  scheme {:?}, viscous term {:?}, upwind scale {}, dt_F = {:e} s",
+        "  scheme {:?}, viscous term {:?}, pressure force {:?}, upwind scale {}, dt_F = {:e} s",
         f.scheme,
         f.viscous,
+        f.pressure_force.unwrap_or(FluidPressureForce::Normal),
         f.upwind,
         f.dt.unwrap_or_default()
     );
@@ -224,6 +228,11 @@ pub fn fluid_flow(f: &Fluid, grid: &Grid, gravity: [f64; 3]) -> FluidFlow {
     cfg.viscous = match f.viscous {
         FluidViscous::Laplacian => ViscousForm::Laplacian,
         FluidViscous::Deformation => ViscousForm::Deformation,
+    };
+    // scenes from `scene::parse` have it chosen (see `Fluid::pressure_force`)
+    cfg.pressure_force = match f.pressure_force {
+        Some(FluidPressureForce::Shared) => PressureForce::Shared,
+        Some(FluidPressureForce::Normal) | None => PressureForce::Normal,
     };
     let mut solver = NavierStokes::new(grid, cfg, grid.dirichlet_mask());
     let (lo, hi) = (grid.lower, grid.upper);

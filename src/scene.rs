@@ -140,6 +140,11 @@ pub struct Fluid {
     /// Form of the viscous term.
     #[serde(default)]
     pub viscous: FluidViscous,
+    /// How the pressure acts on the face velocities; unset, [`parse`] chooses `shared` in
+    /// scenes with particles that move in the fluid (their added mass) and `normal`
+    /// otherwise.
+    #[serde(default)]
+    pub pressure_force: Option<FluidPressureForce>,
     /// Scale of the local Peclet numbers in the Samarskij upwind weights of the convection
     /// (1: full Samarskij upwinding; 0.1 as FEATFLOW's UPSAM adds less numerical
     /// diffusion at high cell Reynolds numbers).
@@ -266,6 +271,15 @@ pub enum FluidViscous {
     #[default]
     Laplacian,
     Deformation,
+}
+
+/// How the pressure acts on the face velocities: `normal` (the Galerkin form of the
+/// Q1~/P0 pair) or `shared` (see `grainflow_fluid::PressureForce`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FluidPressureForce {
+    Normal,
+    Shared,
 }
 
 /// Boundary conditions of the six sides of the fluid box (default: no-slip walls).
@@ -607,6 +621,13 @@ pub struct InflowSpec {
 
 impl Scene {
     /// Whether the scene has particles (placed or inflowing) or walls: the DEM part.
+    /// Whether the scene has particles that are not all fixed (free spheres, blocks,
+    /// LAMMPS data or inflows).
+    pub fn has_moving_particles(&self) -> bool {
+        self.spheres.iter().any(|s| !s.fixed)
+            || !(self.blocks.is_empty() && self.lammps.is_empty() && self.inflows.is_empty())
+    }
+
     pub fn has_particles(&self) -> bool {
         !(self.spheres.is_empty()
             && self.blocks.is_empty()
@@ -674,6 +695,16 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, Sce
             scene.subcycling = Some((n_s, dt_d));
             scene.simulation.dt = dt_f / n_s as f64;
         }
+    }
+    let moving = scene.has_moving_particles();
+    if let Some(f) = scene.fluid.as_mut() {
+        // the shared force gives a moving particle its added mass (tests/added_mass.rs);
+        // without one the Galerkin form keeps the figures it was validated with
+        f.pressure_force.get_or_insert(if moving {
+            FluidPressureForce::Shared
+        } else {
+            FluidPressureForce::Normal
+        });
     }
     Ok(scene)
 }

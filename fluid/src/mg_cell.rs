@@ -26,7 +26,7 @@
 //! iterates are then kept at zero mean.
 
 use crate::grid::{BoundaryKind, Grid};
-use crate::ops::{axpy, dot, min_rows, remove_mean, serial_dot, CellOperator};
+use crate::ops::{axpy, dot, min_rows, remove_mean, serial_dot, CellOperator, PressureForce};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -83,6 +83,12 @@ pub struct PressureMg {
 impl PressureMg {
     /// Hierarchy for the Schur complement of `grid` with V(2,2) cycles.
     pub fn new(grid: &Grid) -> Self {
+        Self::for_force(grid, PressureForce::Normal)
+    }
+
+    /// Hierarchy for the Schur complement of `grid` under the pressure force `force`
+    /// ([`CellOperator::schur`] or [`CellOperator::shared_schur`] on every level).
+    pub fn for_force(grid: &Grid, force: PressureForce) -> Self {
         let mut grids = vec![grid.clone()];
         while let Some(c) = grids.last().unwrap().coarser() {
             grids.push(c);
@@ -93,7 +99,10 @@ impl PressureMg {
             .map(|g| {
                 let n = g.num_cells();
                 CellLevel {
-                    op: CellOperator::schur(g),
+                    op: match force {
+                        PressureForce::Normal => CellOperator::schur(g),
+                        PressureForce::Shared => CellOperator::shared_schur(g),
+                    },
                     transfer: g.coarser().map(|c| Transfer::new(&c)),
                     x: vec![0.0; n],
                     b: vec![0.0; n],

@@ -353,7 +353,7 @@ impl FaceOperator {
 
     /// The per-face convection table (see the field `faces`): the diagonal entry and the
     /// coefficients of [`side_coefficients`], computed with exactly the operations of
-    /// [`FaceOperator::row`], so that the row loops read one contiguous record per face.
+    /// [`FaceOperator::row_with`], so that the row loops read one contiguous record per face.
     fn fill_face_table(&self, conv: &Convection, out: &mut Vec<[f64; FACE_RECORD]>) {
         let lay = &self.layout;
         out.resize(lay.num_faces(), [0.0; FACE_RECORD]);
@@ -404,29 +404,6 @@ impl FaceOperator {
     /// Whether the operator carries a (non-symmetric) convection part.
     pub fn has_convection(&self) -> bool {
         self.conv.is_some()
-    }
-
-    /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`,
-    /// for each of the `M` vectors of `x`.
-    #[inline]
-    fn row<const M: usize, T: Lanes<M>>(
-        &self,
-        a: usize,
-        f: [usize; 3],
-        x: &[T],
-    ) -> (f64, [f64; M]) {
-        let conv = self.conv.as_ref();
-        let mut diag = 0.0;
-        let mut off = [0.0; M];
-        for (m, o) in off.iter_mut().enumerate() {
-            (diag, *o) = self.row_with(
-                a,
-                f,
-                |i| x[i].lanes()[m],
-                |c| conv.map(|conv| &conv.cells[c]),
-            );
-        }
-        (diag, off)
     }
 
     /// Row `f` of family `a` of `A x` for the three vectors `x`, with the convection of
@@ -494,8 +471,9 @@ impl FaceOperator {
             });
     }
 
-    /// [`FaceOperator::row`] with the convection record of cell `c` from `conv(c)`
-    /// (`None`: no convection).
+    /// Diagonal entry and `sum_{j != i} A_ij x_j` of the row of face `f` of family `a`
+    /// (the generic row, the reference of the row loops), with the values `x(i)` and the
+    /// convection record of cell `c` from `conv(c)` (`None`: no convection).
     #[inline]
     fn row_with<R: std::borrow::Borrow<[f64; 24]>>(
         &self,
@@ -536,17 +514,18 @@ impl FaceOperator {
     /// For the faces of row `(j, k)` of family `a` (face coordinates `[i, j, k]`) with
     /// `i % 2 == p` (all `i` if `parity` is `None`): `g(i, diag, off)` with the diagonal
     /// entry and `sum_{j != i} A_ij x_j` of the row for each of the `M` vectors of `x`,
-    /// exactly as [`FaceOperator::row`] computes them (same operations in the same order,
-    /// per vector as for one). The faces whose neighbours are shift-invariant along `i`
-    /// (no box side, no periodic wrap) run through one specialised loop with precomputed
-    /// index offsets, the others one by one.
+    /// exactly as [`FaceOperator::row_with`] computes them (same operations in the same order,
+    /// per vector as for one), with the values of `x` read from `x` (see [`Sources`]).
+    /// The faces whose neighbours are shift-invariant along `i` (no box side, no periodic
+    /// wrap) run through one specialised loop with precomputed index offsets, the others
+    /// one by one.
     #[inline]
     pub(crate) fn for_row<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
         j: usize,
         k: usize,
-        x: &[T],
+        x: Sources<'_, T>,
         parity: Option<usize>,
         mut g: impl FnMut(usize, f64, [f64; M]),
     ) {
@@ -588,14 +567,14 @@ impl FaceOperator {
         a: usize,
         j: usize,
         k: usize,
-        x: &[T],
+        x: Sources<'_, T>,
         i0: usize,
         start: usize,
         end: usize,
         step: usize,
         g: &mut impl FnMut(usize, f64, [f64; M]),
     ) {
-        let (sides, count) = self.row_sides(a, [i0, j, k]);
+        let (sides, count) = self.row_sides(a, [i0, j, k], &x);
         let fb = self.row_start(a, j, k) + i0;
         let conv = self.conv.is_some();
         match (count, conv) {
@@ -607,18 +586,14 @@ impl FaceOperator {
                 self.segment::<1, true, M, T>([sides[0]], a, x, fb, i0, start, end, step, g)
             }
             (2, true) => self.segment::<2, true, M, T>(sides, a, x, fb, i0, start, end, step, g),
-            _ => {
-                for i in (start..end).step_by(step) {
-                    let (d, o) = self.row(a, [i, j, k], x);
-                    g(i, d, o);
-                }
-            }
+            _ => unreachable!("a face has one or two cells"),
         }
     }
 
-    /// Index offsets of the adjacent cells of face `f` of family `a` (see [`RowSide`]).
+    /// Index offsets of the adjacent cells of face `f` of family `a` (see [`RowSide`]),
+    /// relative to the slices of `x` they are read from.
     #[inline]
-    fn row_sides(&self, a: usize, f: [usize; 3]) -> ([RowSide; 2], usize) {
+    fn row_sides<T>(&self, a: usize, f: [usize; 3], x: &Sources<'_, T>) -> ([RowSide; 2], usize) {
         let lay = &self.layout;
         let [b0, b1] = others(a);
         let mut out = [RowSide::default(); 2];
@@ -626,13 +601,15 @@ impl FaceOperator {
         for (side, cell) in lay.face_cells(a, f).into_iter().enumerate() {
             let Some(c) = cell else { continue };
             let opp = if side == 0 { c } else { lay.upper(a, c) };
+            let (o0, o1) = (x.xb[0].1, x.xb[1].1);
             out[count] = RowSide {
-                opp: lay.face(a, opp),
+                side,
+                opp: lay.face(a, opp) - x.opp[side].1,
                 xb: [
-                    lay.face(b0, c),
-                    lay.face(b0, lay.upper(b0, c)),
-                    lay.face(b1, c),
-                    lay.face(b1, lay.upper(b1, c)),
+                    lay.face(b0, c) - o0,
+                    lay.face(b0, lay.upper(b0, c)) - o0,
+                    lay.face(b1, c) - o1,
+                    lay.face(b1, lay.upper(b1, c)) - o1,
                 ],
             };
             count += 1;
@@ -643,14 +620,14 @@ impl FaceOperator {
     /// The shift-invariant part of [`FaceOperator::for_row`] on family `a`: faces
     /// `i = start, start + step, ... < end`, whose neighbour indices are those of `sides`
     /// (taken at face `i0`, global index `fbase`) plus `i - i0`; the arithmetic is that of
-    /// [`FaceOperator::row`] (with convection the diagonal comes from the face table).
+    /// [`FaceOperator::row_with`] (with convection the diagonal comes from the face table).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn segment<const N: usize, const CONV: bool, const M: usize, T: Lanes<M>>(
         &self,
         sides: [RowSide; N],
         a: usize,
-        x: &[T],
+        x: Sources<'_, T>,
         fbase: usize,
         i0: usize,
         start: usize,
@@ -662,6 +639,8 @@ impl FaceOperator {
         let opp_c = self.opp[a];
         let [b0, b1] = others(a);
         let (adj0, adj1) = (self.adj[a][b0], self.adj[a][b1]);
+        let xo = sides.map(|s| x.opp[s.side].0);
+        let [xb0, xb1] = x.xb.map(|(v, _)| v);
         for i in (start..end).step_by(step) {
             let t = i - i0;
             let mut diag = 0.0;
@@ -675,10 +654,10 @@ impl FaceOperator {
                 if !CONV {
                     diag += same;
                 }
-                let x_opp = x[s.opp + t].lanes();
+                let x_opp = xo[slot][s.opp + t].lanes();
                 let xb = [
-                    [x[s.xb[0] + t].lanes(), x[s.xb[1] + t].lanes()],
-                    [x[s.xb[2] + t].lanes(), x[s.xb[3] + t].lanes()],
+                    [xb0[s.xb[0] + t].lanes(), xb0[s.xb[1] + t].lanes()],
+                    [xb1[s.xb[2] + t].lanes(), xb1[s.xb[3] + t].lanes()],
                 ];
                 for m in 0..M {
                     let xbm = [[xb[0][0][m], xb[0][1][m]], [xb[1][0][m], xb[1][1][m]]];
@@ -720,12 +699,27 @@ impl FaceOperator {
 
     /// `y = A x` (for each of the `M` vectors of `x`, see [`Lanes`]).
     pub fn apply<const M: usize, T: Lanes<M>>(&self, x: &[T], y: &mut [T]) {
+        self.apply_masked(x, None, y);
+    }
+
+    /// `y = A x` with the rows flagged in `mask` (if any) set to zero, in the same pass.
+    pub(crate) fn apply_masked<const M: usize, T: Lanes<M>>(
+        &self,
+        x: &[T],
+        mask: Option<&[bool]>,
+        y: &mut [T],
+    ) {
         for a in 0..3 {
             self.par_rows(a, y, |j, k, row| {
                 let base = self.row_start(a, j, k);
-                self.for_row(a, j, k, x, None, |i, d, off| {
-                    let xi = x[base + i].lanes();
-                    row[i] = T::from_lanes(std::array::from_fn(|m| d * xi[m] + off[m]));
+                self.for_row(a, j, k, Sources::whole(x), None, |i, d, off| {
+                    let fi = base + i;
+                    row[i] = if mask.is_some_and(|m| m[fi]) {
+                        T::from_lanes([0.0; M])
+                    } else {
+                        let xi = x[fi].lanes();
+                        T::from_lanes(std::array::from_fn(|m| d * xi[m] + off[m]))
+                    };
                 });
             });
         }
@@ -742,7 +736,7 @@ impl FaceOperator {
         for a in 0..3 {
             self.par_rows(a, r, |j, k, row| {
                 let base = self.row_start(a, j, k);
-                self.for_row(a, j, k, x, None, |i, d, off| {
+                self.for_row(a, j, k, Sources::whole(x), None, |i, d, off| {
                     let fi = base + i;
                     row[i] = if mask[fi] {
                         T::from_lanes([0.0; M])
@@ -755,58 +749,124 @@ impl FaceOperator {
         }
     }
 
-    /// One Gauss-Seidel colour (family `a`, faces with coordinate along `a` of parity
-    /// `parity`): the new values `(b_i - off_i) / d_i` of the free faces of the colour are
-    /// computed into `tmp` from the old `x` and then copied into `x`. Faces of one colour
-    /// share no cell (their rows do not couple), so this is exactly the in-place sweep.
-    pub(crate) fn gauss_seidel_colour<const M: usize, T: Lanes<M>>(
+    /// The two Gauss-Seidel colours of family `a` (faces whose coordinate along `a` has
+    /// parity `first`, then the others): each free face of a colour gets
+    /// `(b_i - off_i) / d_i`, written into `x` in place. Faces of one colour share no cell
+    /// (their rows do not couple), so the order inside a colour does not matter, and the
+    /// result is that of the two colours swept one after the other over the whole family,
+    /// bit for bit. Read together, the two colours fetch the family's neighbours from
+    /// memory once instead of twice:
+    ///
+    /// * `a = 0`: the colours alternate along each row (opposite faces `i -+ 1`); a row
+    ///   task sweeps the first colour, then the second, each reading the row's other
+    ///   parity from a copy of the row taken before it (the row and its neighbours of the
+    ///   other families are in cache for the second colour).
+    /// * `a = 1, 2`: the colours alternate by row (opposite faces in the rows `-+ 1` along
+    ///   `a`). A task takes a line of rows along `a` (`a = 1`: the rows `j = 0..` of one
+    ///   `k`; `a = 2`: the rows `k = 0..` of one `j`) as a wavefront: row `c` of the first
+    ///   colour (its neighbours `c -+ 1` not yet updated), then row `c - 1` of the second
+    ///   (its neighbours `c - 2` and `c` updated); the second-colour rows at the two ends
+    ///   (row 0, and the last row, whose neighbours can wrap around a periodic side) last.
+    ///
+    /// A row is written only by the task that owns it and read, while it is written, only
+    /// by that task (the rows are borrowed mutably, the other families shared). The colours
+    /// need an even number of cells along `a` if it is periodic (else the wrap couples two
+    /// faces of one colour): true on every level that smooths (level 2 and finer).
+    pub(crate) fn gauss_seidel_family<const M: usize, T: Lanes<M>>(
         &self,
         a: usize,
-        parity: usize,
+        first: usize,
         x: &mut [T],
         b: &[T],
         mask: &[bool],
-        tmp: &mut [T],
     ) {
-        // the rows of the colour, and the parity of `i` inside them (`None`: all faces)
-        let sel = |j: usize, k: usize| match a {
-            0 => Some(Some(parity)),
-            1 if j % 2 == parity => Some(None),
-            2 if k % 2 == parity => Some(None),
-            _ => None,
-        };
-        {
-            let xs: &[T] = x;
-            self.par_rows(a, tmp, |j, k, row| {
-                let Some(sel) = sel(j, k) else { return };
-                let base = self.row_start(a, j, k);
-                self.for_row(a, j, k, xs, sel, |i, d, off| {
-                    let fi = base + i;
-                    row[i] = if mask[fi] {
-                        xs[fi]
-                    } else {
-                        let bi = b[fi].lanes();
-                        T::from_lanes(std::array::from_fn(|m| (bi[m] - off[m]) / d))
-                    };
-                });
-            });
-        }
         let lay = &self.layout;
+        assert!(
+            !lay.periodic[a] || lay.n[a] % 2 == 0,
+            "Gauss-Seidel colours: periodic direction {a} with an odd number of cells"
+        );
         let d = lay.fdim[a];
-        let range = lay.off[a]..lay.off[a + 1];
-        x[range.clone()]
-            .par_chunks_mut(d[0])
-            .zip(tmp[range].par_chunks(d[0]))
-            .with_min_len(min_rows(d[0]))
+        let off = lay.off;
+        let (front, x2) = x.split_at_mut(off[2]);
+        let (x0, x1) = front.split_at_mut(off[1]);
+        let (xa, xb): (&mut [T], [(&[T], usize); 2]) = match a {
+            0 => (x0, [(x1, off[1]), (x2, off[2])]),
+            1 => (x1, [(x2, off[2]), (x0, off[0])]),
+            _ => (x2, [(x0, off[0]), (x1, off[1])]),
+        };
+        // the free faces of row (j, k) of the selected parity (`None`: all), opposite
+        // faces from `opp`
+        let update =
+            |j: usize, k: usize, row: &mut [T], opp: [(&[T], usize); 2], parity: Option<usize>| {
+                let base = self.row_start(a, j, k);
+                self.for_row(a, j, k, Sources { opp, xb }, parity, |i, dg, o| {
+                    let fi = base + i;
+                    if !mask[fi] {
+                        let bi = b[fi].lanes();
+                        row[i] = T::from_lanes(std::array::from_fn(|m| (bi[m] - o[m]) / dg));
+                    }
+                });
+            };
+        if a == 0 {
+            xa.par_chunks_mut(d[0])
+                .with_min_len(min_rows(d[0]))
+                .enumerate()
+                .for_each_init(Vec::new, |copy, (r, row)| {
+                    let (j, k) = (r % d[1], r / d[1]);
+                    let base = self.row_start(a, j, k);
+                    for parity in [first, 1 - first] {
+                        copy.clear();
+                        copy.extend_from_slice(row);
+                        update(j, k, row, [(&copy[..], base); 2], Some(parity));
+                    }
+                });
+            return;
+        }
+        // row (j, k) is row c of line `line`: a = 1: (c, line) = (j, k), a = 2: (k, j)
+        let coords = |line: usize, c: usize| if a == 1 { (c, line) } else { (line, c) };
+        let lines = if a == 1 { d[2] } else { d[1] };
+        let mut rows: Vec<Vec<&mut [T]>> = (0..lines).map(|_| Vec::new()).collect();
+        for (r, row) in xa.chunks_mut(d[0]).enumerate() {
+            let line = if a == 1 { r / d[1] } else { r % d[1] };
+            rows[line].push(row);
+        }
+        let periodic = lay.periodic[a];
+        rows.into_par_iter()
             .enumerate()
-            .for_each(|(r, (xr, tr))| match sel(r % d[1], r / d[1]) {
-                Some(Some(p)) => {
-                    for i in (p..xr.len()).step_by(2) {
-                        xr[i] = tr[i];
+            .for_each(|(line, mut rows)| {
+                let len = rows.len();
+                let mut step = |c: usize| {
+                    let (before, rest) = rows.split_at_mut(c);
+                    let (row, after) = rest.split_first_mut().expect("row c exists");
+                    // the rows of the opposite faces of the minus and the plus cell
+                    let (mut minus, mut plus) = (before.last(), after.first());
+                    if periodic {
+                        minus = minus.or(after.last());
+                        plus = plus.or(before.first());
+                    }
+                    let opp = [(minus, c + len - 1), (plus, c + 1)].map(|(r, c)| match r {
+                        Some(r) => {
+                            let (j, k) = coords(line, c % len);
+                            (&r[..], self.row_start(a, j, k))
+                        }
+                        // no cell on this side: never read
+                        None => (&[][..], 0),
+                    });
+                    let (j, k) = coords(line, c);
+                    update(j, k, row, opp, None);
+                };
+                for c in (first..len).step_by(2) {
+                    step(c);
+                    if c >= 2 {
+                        step(c - 1);
                     }
                 }
-                Some(None) => xr.copy_from_slice(tr),
-                None => {}
+                if first == 1 {
+                    step(0);
+                }
+                if (len - 1) % 2 != first && len > 1 {
+                    step(len - 1);
+                }
             });
     }
 }
@@ -816,8 +876,33 @@ impl FaceOperator {
 /// families (`b0` lower/upper, `b1` lower/upper).
 #[derive(Debug, Clone, Copy, Default)]
 struct RowSide {
+    /// Side of the face the cell lies on (0: minus, 1: plus): which of
+    /// [`Sources::opp`] holds the opposite face.
+    side: usize,
     opp: usize,
     xb: [usize; 4],
+}
+
+/// Where the row loops ([`FaceOperator::for_row`]) read the values of the unknowns: each
+/// slice with the global face index of its first entry. The opposite faces of the minus
+/// and of the plus cell of a face of family `a` come from `opp[0]` and `opp[1]`, the faces
+/// of the families `others(a)` from `xb[0]` and `xb[1]`. Whole-vector passes give the
+/// whole vector for all four ([`Sources::whole`]); the in-place Gauss-Seidel sweep gives
+/// the rows and families it does not write ([`FaceOperator::gauss_seidel_family`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Sources<'a, T> {
+    opp: [(&'a [T], usize); 2],
+    xb: [(&'a [T], usize); 2],
+}
+
+impl<'a, T> Sources<'a, T> {
+    /// Every value from the whole vector `x`.
+    pub(crate) fn whole(x: &'a [T]) -> Self {
+        Sources {
+            opp: [(x, 0); 2],
+            xb: [(x, 0); 2],
+        }
+    }
 }
 
 /// The transposed-gradient part `K_T` of the deformation-tensor viscous term:
@@ -966,6 +1051,94 @@ pub fn add_gradient(grid: &Grid, p: &[f64], s: f64, u: [&mut [f64]; 3]) {
     }
 }
 
+/// How the pressure acts on the face velocities.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PressureForce {
+    /// The Galerkin form `B p` of the Q1~/P0 pair: on the normal component of each face.
+    Normal,
+    /// `S B p` ([`PressureShare::component`]): each interior face's force shared among
+    /// its normal component and the tangential components of its neighbours.
+    Shared,
+}
+
+/// `u_b += s (S B p)_b` for all three components `b` on every face: the pressure force
+/// `B p` of the Q1~/P0 pair shared among the components ([`PressureShare::component`]).
+pub fn add_shared_gradient(grid: &Grid, p: &[f64], s: f64, u: [&mut [f64]; 3]) {
+    let share = PressureShare::of(grid);
+    for (b, ub) in u.into_iter().enumerate() {
+        for a in 0..3 {
+            ub[share.layout.off[a]..share.layout.off[a + 1]]
+                .par_iter_mut()
+                .with_min_len(MIN_TASK)
+                .enumerate()
+                .for_each(|(idx, o)| {
+                    let f = share.layout.face_coords(a, idx);
+                    *o += s * share.component(p, a, f, b);
+                });
+        }
+    }
+}
+
+/// What [`PressureShare::component`] needs of a grid: the layout and the face areas.
+#[derive(Debug, Clone, Copy)]
+pub struct PressureShare {
+    layout: Layout,
+    area: [f64; 3],
+}
+
+impl PressureShare {
+    pub fn of(grid: &Grid) -> Self {
+        PressureShare {
+            layout: grid.layout(),
+            area: [0, 1, 2].map(|a| grid.face_area(a)),
+        }
+    }
+
+    /// Component `b` of the shared pressure force `(S B p)` at face `f` of family `a`.
+    ///
+    /// The Galerkin gradient of the P0 pressure, `(B p)_g = |F_b| (p_plus - p_minus)` on
+    /// face `g` of family `b`, acts on the normal component of `g` only: the tangential
+    /// components never feel the pressure, so a pressure impulse moves only the normal
+    /// components, which carry a third of the fluid's lumped mass, and the pressure of an
+    /// accelerating flow comes out a third of its value. A sphere released in fluid at
+    /// rest then carries about a fifth of its added mass `rho_f V / 2`
+    /// (tests/added_mass.rs). `S` shares each interior face's force: the face keeps a
+    /// third on its normal component and gives a twelfth to component `b` of each of the
+    /// eight faces of the other families in its two cells. For a smooth pressure every
+    /// face away from the box sides then gets `M_l grad p` at its centre to `O(h^2)` (the
+    /// four `b`-faces round a face of family `a` average the central differences of its
+    /// two cells), and the pressure force on the fluid keeps its total. A face on a box
+    /// side (one cell) keeps its whole force: on a do-nothing side it balances the
+    /// viscous traction of the natural condition, on a Dirichlet side it is not used.
+    /// The divergence constraint sees the normal part, `B p / 3` inside and `B p` on the
+    /// sides: the Schur complement of [`CellOperator::shared_schur`].
+    #[inline]
+    pub fn component(&self, p: &[f64], a: usize, f: [usize; 3], b: usize) -> f64 {
+        let lay = &self.layout;
+        let interior = |b: usize, g: [usize; 3]| matches!(lay.face_cells(b, g), [Some(_), Some(_)]);
+        if a == b {
+            let keep = if interior(a, f) { 1.0 / 3.0 } else { 1.0 };
+            return keep * self.area[a] * pressure_jump(lay, p, a, f);
+        }
+        // per adjacent cell: the mean force of its interior b-faces
+        let cell = |c: [usize; 3]| -> f64 {
+            let (mut sum, mut n) = (0.0, 0.0);
+            for g in [c, lay.upper(b, c)] {
+                if interior(b, g) {
+                    sum += self.area[b] * pressure_jump(lay, p, b, g);
+                    n += 1.0;
+                }
+            }
+            if n > 0.0 {
+                sum / (6.0 * n)
+            } else {
+                0.0
+            }
+        };
+        lay.face_cells(a, f).into_iter().flatten().map(cell).sum()
+    }
+}
+
 /// `p_plus - p_minus` across face `f` of family `a` (a cell outside the box counting as
 /// `p = 0`): `(B p)_F = |F|` times it.
 #[inline]
@@ -1020,6 +1193,16 @@ impl CellOperator {
             coef,
             bfac,
         }
+    }
+
+    /// The Schur complement `B^T M_l^{-1} S_n B` of the shared pressure force
+    /// ([`PressureShare::component`]), `S_n` its normal part: a third of
+    /// [`CellOperator::schur`] across interior faces, all of it across do-nothing sides.
+    pub fn shared_schur(grid: &Grid) -> Self {
+        let mut op = CellOperator::schur(grid);
+        op.coef.iter_mut().for_each(|c| *c /= 3.0);
+        op.bfac.iter_mut().flatten().for_each(|f| *f *= 3.0);
+        op
     }
 
     /// Neighbour coordinate of `m` along `d` on `side` (0 lower, 1 upper), `None` across
