@@ -204,7 +204,7 @@ fn viscous_form_and_time_step_limits() {
     let (code, stdout, stderr) = run_cli(&["check", s]);
     assert_eq!(code, 0, "{stderr}");
     assert!(
-        stdout.contains("viscous term Laplacian, upwind scale 1,"),
+        stdout.contains("viscous term Laplacian, pressure force Normal, upwind scale 1,"),
         "{stdout}"
     );
     let (code, stdout, stderr) = run_cli(&["check", s, "--set", "fluid.upwind=0.1"]);
