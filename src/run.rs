@@ -334,7 +334,7 @@ impl Simulation {
     }
 
     /// The `fluid` object of the run report: level, degrees of freedom, steps, wall seconds
-    /// per fluid step, and per sub-problem the multigrid cycles per step, the mean
+    /// per fluid step (mean, median and the first step's), and per sub-problem the multigrid cycles per step, the mean
     /// (geometric) residual reduction per cycle and the wall seconds per step. Null without a fluid grid.
     pub fn fluid_summary(&self) -> serde_json::Value {
         let Some(flow) = self.world.get_resource::<FluidFlow>() else {
@@ -348,6 +348,8 @@ impl Simulation {
             "steps": s.steps,
             "dt": flow.dt,
             "mean_step_s": s.seconds / steps,
+            "median_step_s": s.median_step_seconds(),
+            "first_step_s": s.step_seconds.first().copied().unwrap_or(0.0),
             "momentum": {
                 "cycles_per_step": s.momentum_cycles as f64 / steps,
                 "mean_reduction_per_cycle": (s.momentum_log_rate / steps).exp(),

@@ -161,6 +161,16 @@ fn fluid_run_reports_its_solver() {
     assert_eq!(fluid["level"], 1, "{fluid}");
     assert_eq!(fluid["dofs"], 7075, "{fluid}");
     assert_eq!(fluid["steps"], 10, "{fluid}");
+    // the median of ten steps is at most twice their mean (five steps are at least as
+    // long), the first step at most their sum
+    let seconds = |k: &str| fluid[k].as_f64().unwrap_or_else(|| panic!("{k}: {fluid}"));
+    let (mean, median, first) = (
+        seconds("mean_step_s"),
+        seconds("median_step_s"),
+        seconds("first_step_s"),
+    );
+    assert!(median > 0.0 && first > 0.0, "{fluid}");
+    assert!(median <= 2.0 * mean && first <= 10.0 * mean, "{fluid}");
     let rate = fluid["pressure"]["mean_reduction_per_cycle"]
         .as_f64()
         .unwrap();

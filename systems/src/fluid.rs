@@ -28,10 +28,13 @@ pub struct FluidFlow {
 }
 
 /// Sums over the fluid steps of a run, for the run report.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct FluidStats {
     pub steps: u64,
     pub seconds: f64,
+    /// Wall seconds of each step, in order: the first steps also pay for allocating the
+    /// solver's work vectors, so the median is the cost of a step in a long run.
+    pub step_seconds: Vec<f64>,
     pub momentum_cycles: u64,
     /// Sum of ln(reduction per cycle) over the steps (their geometric mean is reported).
     pub momentum_log_rate: f64,
@@ -48,6 +51,7 @@ impl FluidStats {
     pub fn add(&mut self, r: &StepReport) {
         self.steps += 1;
         self.seconds += r.seconds;
+        self.step_seconds.push(r.seconds);
         self.momentum_cycles += r.momentum_cycles as u64;
         self.momentum_log_rate += r.momentum_reduction.max(1e-300).ln();
         self.pressure_cycles += r.pressure_cycles as u64;
@@ -55,6 +59,18 @@ impl FluidStats {
         self.momentum_seconds += r.momentum_seconds;
         self.pressure_seconds += r.pressure_seconds;
         self.max_divergence = self.max_divergence.max(r.max_divergence);
+    }
+
+    /// Median wall seconds of a step (the mean of the middle two for an even count; 0
+    /// without steps).
+    pub fn median_step_seconds(&self) -> f64 {
+        let mut s = self.step_seconds.clone();
+        s.sort_by(f64::total_cmp);
+        match s.len() {
+            0 => 0.0,
+            n if n % 2 == 1 => s[n / 2],
+            n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+        }
     }
 }
 
