@@ -9,7 +9,8 @@ use grainflow_systems::inflow::next_f64;
 use grainflow_systems::walls::{wall_contains, wall_distance};
 
 use crate::scene::{
-    Axis, ForceMethodName, ParticleUpdateName, RegionSpec, Scene, SceneError, SurfaceSpec, WallSpec,
+    Axis, BoundaryRuleName, ForceMethodName, ParticleUpdateName, RegionSpec, Scene, SceneError,
+    SurfaceSpec, WallSpec,
 };
 
 /// The pair table: E* from both materials, damping laws averaged when both materials use
@@ -567,6 +568,10 @@ fn insert_coupling(world: &mut World, scene: &Scene, n_s: u32, rows: usize) {
         update: match spec.update {
             ParticleUpdateName::FluidMomentum => ParticleUpdate::FluidMomentum,
             ParticleUpdateName::Prescribed => ParticleUpdate::Prescribed,
+        },
+        boundary: match spec.boundary {
+            BoundaryRuleName::FaceCentre => BoundaryRule::FaceCentre,
+            BoundaryRuleName::DistancePenalty => BoundaryRule::DistancePenalty,
         },
         rule: grainflow_systems::coupling::lebedev::lebedev_rule(spec.points)
             .expect("validated rule"),

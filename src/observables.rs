@@ -22,7 +22,9 @@
 //!   floor or on spheres that do; null if it never does), `clusters_final` and
 //!   `clusters_max` (groups of spheres with gaps below a tenth of the radius).
 use bevy_ecs::prelude::*;
-use grainflow_components::{Clamped, Coupling, HydroForces, Particles, RunHealth, SimClock};
+use grainflow_components::{
+    BoundaryRule, Clamped, Coupling, HydroForces, Particles, RunHealth, SimClock,
+};
 use grainflow_fluid::sample::velocity_at;
 use grainflow_systems::coupling::surface_points::surface_point_force;
 use grainflow_systems::coupling::volume_integral::volume_integral_force;
@@ -242,8 +244,12 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
         );
         out.insert("drag_force".into(), json!(f));
         // both force methods on the final flow, for comparison (the flow does not depend
-        // on the method around a fixed sphere)
-        if let Some(coupling) = world.get_resource::<Coupling>() {
+        // on the method around a fixed sphere); not under the distance penalty, whose
+        // reaction is part of the force and which the surface points do not combine with
+        if let Some(coupling) = world
+            .get_resource::<Coupling>()
+            .filter(|c| c.boundary == BoundaryRule::FaceCentre)
+        {
             let ns = &flow.solver;
             let (grid, u, p) = (ns.grid(), [&ns.u[0][..], &ns.u[1], &ns.u[2]], &ns.p[..]);
             for (name, force) in [

@@ -184,6 +184,9 @@ pub struct CouplingSpec {
     /// How free particles follow the flow.
     #[serde(default)]
     pub update: ParticleUpdateName,
+    /// Where the fluid sees the particles' surfaces.
+    #[serde(default)]
+    pub boundary: BoundaryRuleName,
     /// Points of the Lebedev-Laikov rule of the surface force points.
     #[serde(default = "default_force_points")]
     pub points: usize,
@@ -206,6 +209,7 @@ impl Default for CouplingSpec {
             alpha: None,
             force: ForceMethodName::default(),
             update: ParticleUpdateName::default(),
+            boundary: BoundaryRuleName::default(),
             points: default_force_points(),
             lubrication: false,
             lubrication_range: None,
@@ -216,6 +220,19 @@ impl Default for CouplingSpec {
 
 fn default_force_points() -> usize {
     110
+}
+
+/// Boundary rule names of the scene file (`grainflow_components::BoundaryRule`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BoundaryRuleName {
+    /// The default: a face belongs to a particle when its centre lies inside.
+    #[default]
+    FaceCentre,
+    /// The face-centre rule plus an implicit penalty on the faces within a cell outside
+    /// the surface, which puts the wall at the true surface
+    /// (`grainflow_systems::coupling::distance_penalty`).
+    DistancePenalty,
 }
 
 /// Particle update names of the scene file (`grainflow_components::ParticleUpdate`).
@@ -1023,6 +1040,20 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 "coupling.alpha".into(),
                 format!("expected a number >= 0, got {alpha}"),
             ));
+        }
+        if c.boundary == BoundaryRuleName::DistancePenalty {
+            if c.force == ForceMethodName::SurfacePoints {
+                return Err((
+                    "coupling.boundary".into(),
+                    "expected force = \"volume_integral\" with the distance penalty (the surface points sample the stress at the surface, which the penalty's reaction would count again)".into(),
+                ));
+            }
+            if c.alpha.is_some() {
+                return Err((
+                    "coupling.boundary".into(),
+                    "expected no `alpha` with the distance penalty (the blending and the penalty would both act on the faces outside the surface)".into(),
+                ));
+            }
         }
         for (field, value) in [
             ("coupling.lubrication_range", c.lubrication_range),

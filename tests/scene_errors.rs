@@ -485,3 +485,36 @@ fn bad_lubrication_settings_exit_2_naming_the_field() {
         assert!(message.contains(expected), "{file}: {message}");
     }
 }
+
+/// `coupling.boundary` takes "face_centre" or "distance_penalty"; the penalty needs the
+/// volume-integral force and no blending.
+#[test]
+fn bad_boundary_rules_exit_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let good = in_fluid("[coupling]\nboundary = \"distance_penalty\"");
+    let path = write_scene(d, "penalty.toml", &good);
+    let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    for (file, extra, expected) in [
+        (
+            "unknown.toml",
+            "[coupling]\nboundary = \"staircase\"",
+            "face_centre",
+        ),
+        (
+            "surface_points.toml",
+            "[coupling]\nboundary = \"distance_penalty\"\nforce = \"surface_points\"",
+            "expected force = \"volume_integral\"",
+        ),
+        (
+            "blending.toml",
+            "[coupling]\nboundary = \"distance_penalty\"\nalpha = 0.1",
+            "expected no `alpha`",
+        ),
+    ] {
+        let path = write_scene(d, file, &in_fluid(extra));
+        let message = rejected(d, &path, &[], "coupling.boundary");
+        assert!(message.contains(expected), "{file}: {message}");
+    }
+}

@@ -18,6 +18,19 @@ pub enum ForceMethod {
     VolumeIntegral,
 }
 
+/// Where the fluid sees a particle's surface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoundaryRule {
+    /// A face belongs to the particle when its centre lies inside: the body the flow sees
+    /// is a staircase of faces, up to a face spacing inside the true surface, and it
+    /// changes in steps as the particle moves.
+    FaceCentre,
+    /// As [`BoundaryRule::FaceCentre`], plus an implicit penalty on the faces within one
+    /// cell outside the surface that places the no-slip wall at the true surface
+    /// (`grainflow_systems::coupling::distance_penalty`).
+    DistancePenalty,
+}
+
 /// How a free particle's velocity follows from the flow at each fluid step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParticleUpdate {
@@ -67,6 +80,8 @@ pub struct Coupling {
     pub method: ForceMethod,
     /// How free particles follow the flow.
     pub update: ParticleUpdate,
+    /// Where the fluid sees the particles' surfaces.
+    pub boundary: BoundaryRule,
     /// Force points of [`ForceMethod::SurfacePoints`].
     pub rule: SphereRule,
     /// DEM subcycles per fluid step, n_s = int(dt_F / dt_D) + 1 (seed; Feng & Owen).
@@ -78,8 +93,10 @@ pub struct Coupling {
 /// faces held at a particle's rigid-body velocity at the last marking (so that clearing
 /// costs what marking cost, not the grid), the faces inside free particles under
 /// [`ParticleUpdate::FluidMomentum`] (sorted by face; each face belongs to one particle),
-/// and, when the scene blends, the faces to blend: (face, particle row) of the faces of a
-/// particle's boundary cells that lie outside every particle (sorted).
+/// when the scene blends, the faces to blend: (face, particle row) of the faces of a
+/// particle's boundary cells that lie outside every particle (sorted), and under
+/// [`BoundaryRule::DistancePenalty`] the particle row of each penalised face, in the order
+/// of the flow solver's penalty list.
 #[derive(Resource, Debug, Clone, Default)]
 pub struct CellMarkers {
     pub marker: Vec<i32>,
@@ -87,6 +104,7 @@ pub struct CellMarkers {
     pub rigid_faces: Vec<u32>,
     pub particle_faces: Vec<ParticleFace>,
     pub blend_faces: Vec<(u32, u32)>,
+    pub penalty_rows: Vec<u32>,
 }
 
 /// Hydrodynamic force and torque on every particle from the last fluid step, added to

@@ -25,7 +25,8 @@ pub use contact_law::{
     TangentialStiffness, WallHistory,
 };
 pub use coupling::{
-    CellMarkers, Coupling, ForceMethod, HydroForces, ParticleFace, ParticleUpdate, SphereRule,
+    BoundaryRule, CellMarkers, Coupling, ForceMethod, HydroForces, ParticleFace, ParticleUpdate,
+    SphereRule,
 };
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};

@@ -350,6 +350,15 @@ impl<const M: usize> FaceMg<M> {
         }
     }
 
+    /// Adds `v` to the finest level's diagonal entry of every listed face `(face, v)`
+    /// (after [`FaceMg::set_convection`], which drops earlier additions). The coarse
+    /// levels do not see them, as they do not see the finest level's extra mask: the
+    /// smoother resolves these strongly diagonal rows.
+    pub fn add_fine_diagonal(&mut self, entries: impl Iterator<Item = (usize, f64)>) {
+        let fine = self.levels.last_mut().expect("at least one level");
+        fine.op.add_to_diagonal(entries);
+    }
+
     /// The finest-level operator.
     pub fn operator(&self) -> &FaceOperator {
         &self.levels.last().unwrap().op

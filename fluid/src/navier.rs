@@ -317,6 +317,19 @@ struct Scratch {
     applied: Vec<[f64; 3]>,
 }
 
+/// An implicit reaction `-rate (u - target)` per unit mass on one face's velocity (the
+/// penalty of a fictitious boundary: a face near a particle's surface is pulled towards
+/// the particle's rigid-body velocity, `grainflow_systems::coupling::distance_penalty`).
+/// It is taken backward-Euler within each substep of every scheme (a stiff term):
+/// `M_l (u - u_old) = ... - k_s rate M_l (u - target)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PenaltyFace {
+    pub face: u32,
+    /// Rate in 1/s.
+    pub rate: f64,
+    pub target: [f64; 3],
+}
+
 /// Transient incompressible Navier-Stokes solver on one grid level.
 pub struct NavierStokes {
     grid: Grid,
@@ -340,6 +353,8 @@ pub struct NavierStokes {
     kt: Option<TransposeStiffness>,
     /// Velocity before the last substep and that substep's length (for `u*`).
     prev: Option<([Vec<f64>; 3], f64)>,
+    /// The penalised faces of [`NavierStokes::set_penalty`].
+    penalty: Vec<PenaltyFace>,
     /// The explicit operator `M_l/0 + nu K + N(u)` of the last substep, kept for its
     /// convection tables (refilled in place, not allocated afresh each substep).
     explicit: Option<FaceOperator>,
@@ -381,6 +396,7 @@ impl NavierStokes {
             u: [0, 1, 2].map(|_| vec![0.0; nf]),
             p: vec![0.0; grid.num_cells()],
             prev: None,
+            penalty: Vec::new(),
             explicit: None,
             scratch: Scratch::default(),
             time: 0.0,
@@ -441,6 +457,18 @@ impl NavierStokes {
                 .chain(hold)
                 .map(|&f| (f as usize, mask[f as usize])),
         );
+    }
+
+    /// The faces whose velocity feels an implicit reaction towards a target through the
+    /// following steps (see [`PenaltyFace`]), replacing the earlier list; faces of the
+    /// mask ignore it.
+    pub fn set_penalty(&mut self, faces: Vec<PenaltyFace>) {
+        self.penalty = faces;
+    }
+
+    /// The penalised faces (see [`NavierStokes::set_penalty`]).
+    pub fn penalty(&self) -> &[PenaltyFace] {
+        &self.penalty
     }
 
     /// Sets the velocity of all faces on side `side` (0 lower, 1 upper) of direction `d`
@@ -608,6 +636,13 @@ impl NavierStokes {
                     .for_each(|(r, m)| *r += ks * m * f);
             }
         }
+        // the penalty's target: + k_s rate M_l target
+        for pf in &self.penalty {
+            let f = pf.face as usize;
+            for (rc, t) in sc.rhs.iter_mut().zip(pf.target) {
+                rc[f] += ks * pf.rate * self.ml[f] * t;
+            }
+        }
         // the convecting velocity u*
         let extrapolated = extrapolate && self.prev.is_some();
         for (c, us) in sc.ustar.iter_mut().enumerate() {
@@ -678,6 +713,15 @@ impl NavierStokes {
             .set_operator_split(1.0 / wi, stiff, nu / solve_upwind);
         self.mg
             .set_convection([&sc.ustar[0], &sc.ustar[1], &sc.ustar[2]]);
+        // and its implicit share k_s rate M_l on the diagonal (scaled by 1/w_i)
+        let (ml, mask) = (&self.ml, &self.mask);
+        self.mg.add_fine_diagonal(
+            self.penalty
+                .iter()
+                .map(|pf| (pf.face as usize, ks / wi * pf.rate))
+                .filter(|&(f, _)| !mask[f])
+                .map(|(f, r)| (f, r * ml[f])),
+        );
         // initial guess: the extrapolated u* on the free faces (a second-order prediction
         // of u~, so the relative tolerance leaves a smaller error than from u_old)
         if extrapolated {

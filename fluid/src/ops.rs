@@ -401,6 +401,23 @@ impl FaceOperator {
         (coef, diag)
     }
 
+    /// Adds `v` to the diagonal entry of every listed face `(face, v)` (an implicit
+    /// reaction term such as the penalty of a fictitious boundary,
+    /// [`crate::navier::PenaltyFace`]): the row loops of [`FaceOperator::apply`],
+    /// [`FaceOperator::residual`] and the Gauss-Seidel sweeps read the diagonal from the
+    /// convection table, so the hot loops are unchanged. The next
+    /// [`FaceOperator::with_convection`] refills the table and drops the additions.
+    /// Panics without a convection table.
+    pub(crate) fn add_to_diagonal(&mut self, entries: impl Iterator<Item = (usize, f64)>) {
+        assert!(
+            self.conv.is_some(),
+            "diagonal additions need the convection table"
+        );
+        for (f, v) in entries {
+            self.faces[f][0] += v;
+        }
+    }
+
     /// Whether the operator carries a (non-symmetric) convection part.
     pub fn has_convection(&self) -> bool {
         self.conv.is_some()

@@ -19,6 +19,9 @@
 //!   deepest in.
 //! * when the scene blends, the other faces of each particle's boundary cells, for the
 //!   smooth transition ([`super::blending`]).
+//! * under [`BoundaryRule::DistancePenalty`], the faces within a cell outside the surfaces
+//!   with their penalty rates and targets, given to the flow solver
+//!   ([`super::distance_penalty`]).
 //!
 //! Along a periodic direction of the fluid (length `L`) the DEM particles do not wrap: a
 //! particle may move past the periodic side and sees the flow at its image in the box
@@ -37,10 +40,12 @@
 //! [`ParticleUpdate::FluidMomentum`]: grainflow_components::ParticleUpdate::FluidMomentum
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    CellMarkers, Clamped, Coupling, HydroForces, ParticleFace, Particles, RunHealth, SimClock,
+    BoundaryRule, CellMarkers, Clamped, Coupling, HydroForces, ParticleFace, Particles, RunHealth,
+    SimClock,
 };
 use grainflow_fluid::Grid;
 
+use super::distance_penalty::penalty_faces;
 use super::face_exchange::book_face_exchange;
 use super::{holds_faces, rigid_velocity, Wrap};
 use crate::fluid::FluidFlow;
@@ -77,6 +82,7 @@ pub fn cell_markers(
         rigid_faces,
         particle_faces,
         blend_faces,
+        penalty_rows,
     } = &mut *markers;
     if marker.len() != lay.num_cells() {
         *marker = vec![0; lay.num_cells()];
@@ -175,6 +181,18 @@ pub fn cell_markers(
         }
     }
     flow.solver.move_mask(&released, rigid_faces);
+    if coupling.boundary == BoundaryRule::DistancePenalty {
+        let faces: Vec<u32> = inside.iter().map(|&(face, _, _)| face).collect();
+        let (penalty, rows) = penalty_faces(
+            &grid,
+            &particles,
+            &faces,
+            flow.solver.box_mask(),
+            coupling.viscosity,
+        );
+        flow.solver.set_penalty(penalty);
+        *penalty_rows = rows;
+    }
     // a face of one particle's boundary cells may lie inside another particle
     blend_faces.sort_unstable();
     blend_faces.dedup();

@@ -43,6 +43,7 @@ use grainflow_components::{Clamped, Coupling, ParticleUpdate, Particles};
 use grainflow_fluid::Grid;
 
 pub mod blending;
+pub mod distance_penalty;
 pub mod face_exchange;
 pub mod fluid_momentum;
 pub mod lebedev;
@@ -185,6 +186,36 @@ pub fn rigid_velocity(particles: &Particles, i: usize, r: [f64; 3]) -> [f64; 3] 
         w[0] * r[1] - w[1] * r[0],
     ];
     [0, 1, 2].map(|d| particles.velocity[d][i] + cross[d])
+}
+
+/// Calls `g(a, f, arm)` once for every face of family `a` with coordinates `f` of the
+/// cells that the box `x_p +- reach` meets (the lower faces of the cells, plus the upper
+/// layer along a non-periodic `a`), with its arm `x_f - x_p` by minimum image: every face
+/// whose centre lies within `reach` of `x_p` is among them. `x_p` is the image in the box
+/// ([`Wrap::image`]).
+pub(crate) fn faces_about(
+    grid: &Grid,
+    wrap: &Wrap,
+    xp: [f64; 3],
+    reach: f64,
+    mut g: impl FnMut(usize, [usize; 3], [f64; 3]),
+) {
+    let lay = grid.layout();
+    let range = wrap.cells(xp, reach);
+    for a in 0..3 {
+        let mut hi = [range[0].1, range[1].1, range[2].1];
+        if !lay.periodic[a] {
+            hi[a] = (hi[a] + 1).min(lay.n[a] as isize + 1);
+        }
+        for k in range[2].0..hi[2] {
+            for j in range[1].0..hi[1] {
+                for i in range[0].0..hi[0] {
+                    let fc = wrap.index([i, j, k]);
+                    g(a, fc, wrap.arm(grid.face_centre(a, fc), xp));
+                }
+            }
+        }
+    }
 }
 
 /// Adds the force `df` acting at lever arm `arm` to the force `f` and torque `t`.

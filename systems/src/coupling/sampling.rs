@@ -7,15 +7,18 @@
 //! are held ([`super::surface_points`], [`super::volume_integral`]), from the momentum of
 //! the fluid inside them for free particles under the fluid-momentum update
 //! ([`super::fluid_momentum`]), plus the momentum the velocity blending moved
-//! ([`super::blending`]). It is then held constant over the DEM subcycles up to the next
+//! ([`super::blending`]), plus the reaction of the distance penalty
+//! ([`super::distance_penalty`]). It is then held constant over the DEM subcycles up to the next
 //! fluid step (Feng & Owen 2007) and added to the contact forces in every subcycle
 //! ([`held_hydrodynamic_force`]).
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    CellMarkers, Clamped, ContactLaws, Coupling, ForceMethod, HydroForces, Particles, Rotation,
+    BoundaryRule, CellMarkers, Clamped, ContactLaws, Coupling, ForceMethod, HydroForces, Particles,
+    Rotation,
 };
 use rayon::prelude::*;
 
+use super::distance_penalty::penalty_reaction;
 use super::fluid_momentum::fluid_momentum_force;
 use super::holds_faces;
 use super::surface_points::surface_point_force;
@@ -57,10 +60,19 @@ pub fn hydrodynamic_sampling(
             }
         })
         .collect();
+    let reaction = (coupling.boundary == BoundaryRule::DistancePenalty).then(|| {
+        penalty_reaction(
+            ns,
+            &markers.penalty_rows,
+            &particles,
+            coupling.fluid_density,
+        )
+    });
     for (i, (f, t)) in ft.iter().enumerate() {
+        let (rf, rt) = reaction.as_ref().map_or(([0.0; 3], [0.0; 3]), |r| r[i]);
         for d in 0..3 {
-            hydro.force[d][i] = f[d] + hydro.exchange_force[d][i];
-            hydro.torque[d][i] = t[d] + hydro.exchange_torque[d][i];
+            hydro.force[d][i] = f[d] + rf[d] + hydro.exchange_force[d][i];
+            hydro.torque[d][i] = t[d] + rt[d] + hydro.exchange_torque[d][i];
         }
     }
 }

@@ -148,6 +148,7 @@ mod tests {
                 alpha: None,
                 method: ForceMethod::SurfacePoints,
                 update: grainflow_components::ParticleUpdate::Prescribed,
+                boundary: grainflow_components::BoundaryRule::FaceCentre,
                 rule: crate::coupling::lebedev::lebedev_rule(110).unwrap(),
                 subcycles: 1,
             };

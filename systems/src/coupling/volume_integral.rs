@@ -13,7 +13,7 @@
 use grainflow_components::Coupling;
 use grainflow_fluid::NavierStokes;
 
-use super::{add_force, Wrap};
+use super::{add_force, faces_about, Wrap};
 
 /// Force and torque on a sphere by the volume integral of the fictitious boundary
 /// method, `F = -int sigma . grad(alpha_h)`, evaluated with the discrete operators
@@ -30,31 +30,16 @@ pub fn volume_integral_force(
     r: f64,
 ) -> ([f64; 3], [f64; 3]) {
     let grid = ns.grid();
-    let lay = grid.layout();
     let wrap = Wrap::new(grid);
     let xp = wrap.image(xp);
-    let range = wrap.cells(xp, r);
     let mut faces = Vec::new();
     let mut arms = Vec::new();
-    for a in 0..3 {
-        // the a-faces of the cells in range: lower faces, plus the upper layer
-        let mut hi = [range[0].1, range[1].1, range[2].1];
-        if !lay.periodic[a] {
-            hi[a] = (hi[a] + 1).min(lay.n[a] as isize + 1);
+    faces_about(grid, &wrap, xp, r, |a, fc, arm| {
+        if arm.iter().map(|v| v * v).sum::<f64>() < r * r {
+            faces.push((a, fc));
+            arms.push(arm);
         }
-        for k in range[2].0..hi[2] {
-            for j in range[1].0..hi[1] {
-                for i in range[0].0..hi[0] {
-                    let fc = wrap.index([i, j, k]);
-                    let arm = wrap.arm(grid.face_centre(a, fc), xp);
-                    if arm.iter().map(|v| v * v).sum::<f64>() < r * r {
-                        faces.push((a, fc));
-                        arms.push(arm);
-                    }
-                }
-            }
-        }
-    }
+    });
     let (mut f, mut t) = ([0.0; 3], [0.0; 3]);
     for (arm, res) in arms.into_iter().zip(ns.momentum_residual_at(&faces)) {
         let df = res.map(|v| -coupling.fluid_density * v);
