@@ -5,7 +5,8 @@
 //!   `wake_length_over_d` (recirculation length behind the sphere over its diameter) and
 //!   `separation_angle_deg` (from the front stagnation point), and the drag coefficient of
 //!   both force methods on the final flow (`drag_coefficient_volume_integral`,
-//!   `drag_coefficient_surface_points`; the blending momentum, if any, not included);
+//!   `drag_coefficient_surface_points`; the blending momentum, if any, not included; not
+//!   under the distance penalty);
 //! * one free sphere (sedimentation): `terminal_velocity` (the speed of the mean velocity
 //!   over the last tenth of the run, with the spread of the speed over it as
 //!   `terminal_velocity_spread`) and `particle_reynolds` `2 r |U| / nu`;

@@ -13,8 +13,10 @@
 //!    every face whose centre lies inside a particle (held through the step, the
 //!    fictitious boundary of Wan & Turek 2006, or only its start under the fluid-momentum
 //!    update, with the momentum of the faces that entered and left a free particle since
-//!    the last step booked to it), and, when the scene sets `alpha`, the smooth
-//!    transition of Luo et al. (2007) on the other faces of the cells the surfaces cut;
+//!    the last step booked to it), when the scene sets `alpha`, the smooth transition
+//!    of Luo et al. (2007) on the other faces of the cells the surfaces cut, and under
+//!    `boundary = "distance_penalty"` the implicit penalty of the faces within a cell
+//!    outside the surfaces ([`distance_penalty`]);
 //! 2. the flow step (`crate::fluid`): one Navier-Stokes step of dt_F;
 //! 3. after the flow step ([`sampling`]): the hydrodynamic force and torque of every
 //!    particle from the new flow, by [`surface_points`] (the seed's Lebedev-Laikov force
