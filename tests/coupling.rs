@@ -6,65 +6,10 @@ mod common;
 
 use std::f64::consts::PI;
 
-use common::simulation;
+use common::{run_fluid_steps, simulation, unit_box_scene, PERIODIC_YZ};
 use grainflow_components::{Coupling, HydroForces, Particles};
 use grainflow_systems::coupling::subcycles;
 use grainflow_systems::fluid::FluidFlow;
-
-/// Scene text: fluid box `[0,1]^3` of `cells`^3 coarse cells at `level`, viscosity `nu`,
-/// fluid time step `dt_f`, `boundaries` (TOML lines), one sphere (TOML lines), the
-/// coupling section and extra fluid lines.
-fn scene(cells: usize, level: u32, nu: f64, dt_f: f64, boundaries: &str, sphere: &str) -> String {
-    format!(
-        r#"
-[simulation]
-dt = {dt_f}
-end_time = 1.0
-gravity = [0.0, 0.0, 0.0]
-output_interval = 0.0
-# one sphere and no walls: no contact to resolve
-allow_unstable_dt = true
-
-[fluid]
-density = 1.0
-viscosity = {nu}
-min = [0.0, 0.0, 0.0]
-max = [1.0, 1.0, 1.0]
-cells = [{cells}, {cells}, {cells}]
-level = {level}
-dt = {dt_f}
-scheme = "backward_euler"
-
-[fluid.boundaries]
-{boundaries}
-
-[[materials]]
-name = "s"
-density = 1.0
-youngs_modulus = 100.0
-poisson_ratio = 0.3
-
-[[spheres]]
-material = "s"
-{sphere}
-"#
-    )
-}
-
-/// Periodic y and z sides (TOML lines of `[fluid.boundaries]`).
-const PERIODIC_YZ: &str = r#"ymin = { type = "periodic" }
-ymax = { type = "periodic" }
-zmin = { type = "periodic" }
-zmax = { type = "periodic" }"#;
-
-/// Run until `fluid_steps` fluid steps are done.
-fn run_fluid_steps(sim: &mut grainflow::run::Simulation, fluid_steps: u64) {
-    while sim.world.resource::<FluidFlow>().stats.steps < fluid_steps {
-        sim.step();
-        assert!(sim.failure().is_none(), "{:?}", sim.failure());
-    }
-    // the forces of the last fluid step are sampled in the step that ran it
-}
 
 fn hydro(sim: &grainflow::run::Simulation) -> ([f64; 3], [f64; 3]) {
     let h = sim.world.resource::<HydroForces>();
@@ -84,7 +29,7 @@ fn norm(v: [f64; 3]) -> f64 {
 #[test]
 fn sphere_moving_with_a_uniform_flow_feels_no_force() {
     for method in ["surface_points", "volume_integral"] {
-        let mut text = scene(
+        let mut text = unit_box_scene(
             4,
             2,
             0.1,
@@ -175,7 +120,7 @@ fn sphere_straddling_periodic_sides_feels_the_force_at_the_box_centre() {
         let runs: Vec<_> = ["0.0, 0.0, 0.0", "0.5, 0.5, 0.5"]
             .into_iter()
             .map(|centre| {
-                let mut text = scene(
+                let mut text = unit_box_scene(
                     4,
                     3,
                     0.1,
@@ -243,7 +188,7 @@ fn rotating_sphere_torque_matches_stokes() {
         ("volume_integral", 0.15, 1e-6),
         ("surface_points", 0.75, 0.03),
     ] {
-        let mut text = scene(
+        let mut text = unit_box_scene(
             8,
             3,
             nu,
@@ -281,7 +226,7 @@ fn subcycling_follows_the_seeds_formula() {
     assert_eq!(subcycles(1e-4, 1e-5), 11);
     assert_eq!(subcycles(1e-4, 3e-5), 4);
     assert_eq!(subcycles(1e-4, 2e-4), 1);
-    let text = scene(
+    let text = unit_box_scene(
         4,
         1,
         0.1,
@@ -321,7 +266,7 @@ fn only_coupled_scenes_build_the_coupling() {
     let names = |sim: &grainflow::run::Simulation| -> Vec<&'static str> {
         sim.coupled_step.systems.iter().map(|(_, n)| *n).collect()
     };
-    let coupled = scene(
+    let coupled = unit_box_scene(
         4,
         1,
         0.1,
@@ -395,7 +340,7 @@ fn only_coupled_scenes_build_the_coupling() {
 fn settling_sphere_terminal_velocity_is_independent_of_subcycles() {
     let mut terminal = Vec::new();
     for (dt_d, n_s) in [(0.002, 1), (0.0001, 11)] {
-        let text = scene(
+        let text = unit_box_scene(
             4,
             2,
             1.0,
@@ -628,7 +573,7 @@ fn particles_outside_the_fluid_grid_are_refused() {
         "xmin = {{ type = \"inflow\", velocity = [1.0, 0.0, 0.0] }}\nxmax = {{ type = \"outflow\" }}\n{PERIODIC_YZ}"
     );
     let build = |sphere: &str| {
-        let text = scene(4, 2, 0.1, 0.01, &boundaries, sphere);
+        let text = unit_box_scene(4, 2, 0.1, 0.01, &boundaries, sphere);
         let path = std::path::Path::new("outside.toml");
         let scene = grainflow::scene::parse(&text, path, &[]).expect("parses");
         grainflow::run::Simulation::new(scene, path, None).map(|_| ())
@@ -658,7 +603,7 @@ fn particles_outside_the_fluid_grid_are_refused() {
     build("radius = 0.1\nposition = [0.5, 0.05, 0.5]").expect("straddling ymin");
     build("radius = 0.1\nposition = [0.5, 0.5, 1.02]").expect("centre past zmax");
     // leaving during the run
-    let text = scene(
+    let text = unit_box_scene(
         4,
         2,
         0.1,

@@ -613,6 +613,74 @@ impl Ball {
     }
 }
 
+/// Scene text: fluid box `[0,1]^3` of `cells`^3 coarse cells at `level`, viscosity `nu`,
+/// fluid time step `dt_f`, `boundaries` (TOML lines), one sphere (TOML lines), the
+/// coupling section and extra fluid lines.
+pub fn unit_box_scene(
+    cells: usize,
+    level: u32,
+    nu: f64,
+    dt_f: f64,
+    boundaries: &str,
+    sphere: &str,
+) -> String {
+    format!(
+        r#"
+[simulation]
+dt = {dt_f}
+end_time = 1.0
+gravity = [0.0, 0.0, 0.0]
+output_interval = 0.0
+# one sphere and no walls: no contact to resolve
+allow_unstable_dt = true
+
+[fluid]
+density = 1.0
+viscosity = {nu}
+min = [0.0, 0.0, 0.0]
+max = [1.0, 1.0, 1.0]
+cells = [{cells}, {cells}, {cells}]
+level = {level}
+dt = {dt_f}
+scheme = "backward_euler"
+
+[fluid.boundaries]
+{boundaries}
+
+[[materials]]
+name = "s"
+density = 1.0
+youngs_modulus = 100.0
+poisson_ratio = 0.3
+
+[[spheres]]
+material = "s"
+{sphere}
+"#
+    )
+}
+
+/// Periodic y and z sides (TOML lines of `[fluid.boundaries]`).
+pub const PERIODIC_YZ: &str = r#"ymin = { type = "periodic" }
+ymax = { type = "periodic" }
+zmin = { type = "periodic" }
+zmax = { type = "periodic" }"#;
+
+/// Run until `fluid_steps` fluid steps are done.
+pub fn run_fluid_steps(sim: &mut Simulation, fluid_steps: u64) {
+    while sim
+        .world
+        .resource::<grainflow_systems::fluid::FluidFlow>()
+        .stats
+        .steps
+        < fluid_steps
+    {
+        sim.step();
+        assert!(sim.failure().is_none(), "{:?}", sim.failure());
+    }
+    // the forces of the last fluid step are sampled in the step that ran it
+}
+
 /// Hasimoto's Stokes drag factor of a simple cubic array of spheres (Hasimoto 1959, J.
 /// Fluid Mech. 5:317; coefficients as quoted by Sangani & Acrivos 1982, Int. J.
 /// Multiphase Flow 8:343): `F = 6 pi mu a U K`,
@@ -647,61 +715,23 @@ pub fn periodic_array_drag(
     steps: u64,
 ) -> ArrayDrag {
     let (a, nu, f) = (0.125, 1.0, 0.5);
-    let text = format!(
-        r#"
-[simulation]
-dt = 0.25
-end_time = 1000.0
-gravity = [0.0, 0.0, 0.0]
-output_interval = 0.0
-allow_unstable_dt = true
-
-[fluid]
-density = 1.0
-viscosity = {nu}
-min = [0.0, 0.0, 0.0]
-max = [1.0, 1.0, 1.0]
-cells = [{cells}, {cells}, {cells}]
-level = {level}
-dt = 0.25
-scheme = "backward_euler"
-body_force = [{f}, 0.0, 0.0]
-
-[fluid.boundaries]
-xmin = {{ type = "periodic" }}
-xmax = {{ type = "periodic" }}
-ymin = {{ type = "periodic" }}
-ymax = {{ type = "periodic" }}
-zmin = {{ type = "periodic" }}
-zmax = {{ type = "periodic" }}
-
-[coupling]
-{coupling}
-
-[[materials]]
-name = "s"
-density = 1.0
-youngs_modulus = 100.0
-poisson_ratio = 0.3
-
-[[spheres]]
-material = "s"
-radius = {a}
-position = {centre:?}
-fixed = true
-"#
+    let mut text = unit_box_scene(
+        cells,
+        level,
+        nu,
+        0.25,
+        &format!(
+            "xmin = {{ type = \"periodic\" }}\nxmax = {{ type = \"periodic\" }}\n{PERIODIC_YZ}"
+        ),
+        &format!("radius = {a}\nposition = {centre:?}\nfixed = true"),
+    )
+    .replace(
+        "scheme = \"backward_euler\"",
+        &format!("scheme = \"backward_euler\"\nbody_force = [{f}, 0.0, 0.0]"),
     );
+    text.push_str(&format!("\n[coupling]\n{coupling}\n"));
     let mut sim = simulation(&text, "periodic-array.toml");
-    let flow_steps = |sim: &Simulation| {
-        sim.world
-            .resource::<grainflow_systems::fluid::FluidFlow>()
-            .stats
-            .steps
-    };
-    while flow_steps(&sim) < steps {
-        sim.step();
-        assert!(sim.failure().is_none(), "{:?}", sim.failure());
-    }
+    run_fluid_steps(&mut sim, steps);
     let drag = sim
         .world
         .resource::<grainflow_components::HydroForces>()

@@ -65,12 +65,12 @@ pub fn penalty_spacing(grid: &Grid) -> f64 {
 /// centre lies within the spacing `h` ([`penalty_spacing`]) of a sphere's surface and
 /// whose velocity the box sides do not prescribe, with the rate [`penalty_rate`] of its
 /// nearest surface and that particle's rigid-body velocity at the face centre as target
-/// (in face order). `inside` holds the faces inside the particles (sorted), `box_mask` the
-/// faces the box sides prescribe.
+/// (in face order). `inside` tells whether a face lies inside a particle, `box_mask` flags
+/// the faces the box sides prescribe.
 pub fn penalty_faces(
     grid: &Grid,
     particles: &Particles,
-    inside: &[u32],
+    inside: impl Fn(u32) -> bool,
     box_mask: &[bool],
     nu: f64,
 ) -> (Vec<PenaltyFace>, Vec<u32>) {
@@ -92,7 +92,7 @@ pub fn penalty_faces(
     }
     near.sort_unstable();
     near.dedup_by_key(|&mut (face, _, _)| face);
-    near.retain(|&(face, _, _)| inside.binary_search(&face).is_err());
+    near.retain(|&(face, _, _)| !inside(face));
     let mut faces = Vec::with_capacity(near.len());
     let mut rows = Vec::with_capacity(near.len());
     for (idx, s, i) in near {

@@ -182,11 +182,15 @@ pub fn cell_markers(
     }
     flow.solver.move_mask(&released, rigid_faces);
     if coupling.boundary == BoundaryRule::DistancePenalty {
-        let faces: Vec<u32> = inside.iter().map(|&(face, _, _)| face).collect();
+        let is_inside = |face| {
+            inside
+                .binary_search_by_key(&face, |&(inner, _, _)| inner)
+                .is_ok()
+        };
         let (penalty, rows) = penalty_faces(
             &grid,
             &particles,
-            &faces,
+            is_inside,
             flow.solver.box_mask(),
             coupling.viscosity,
         );
