@@ -37,15 +37,18 @@ pub enum Command {
 pub struct RunArgs {
     pub scene: PathBuf,
     /// Output directory (default `out/SCENE`, SCENE the scene file name without extension).
+    /// The files of an earlier run in it (particles.h5, particles.xdmf, fluid.h5,
+    /// fluid.xdmf, coupling.csv, summary.json) are removed first; other files are kept.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Run until this simulated time, s (default: the scene's end_time).
     #[arg(long, conflicts_with = "steps")]
     pub until: Option<f64>,
-    /// Run this many steps.
+    /// Run this many steps (at most 1e12, as the steps --until or end_time imply).
     #[arg(long)]
     pub steps: Option<u64>,
-    /// Worker threads (default: all cores).
+    /// Worker threads, 1 to 4 x the cores (default: all cores). More threads than cores
+    /// only take turns: the pool's threads spin between the passes of a step.
     #[arg(long)]
     pub threads: Option<usize>,
     /// Write a Chrome/Perfetto trace of every system to FILE.
@@ -62,6 +65,13 @@ pub struct CheckArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
 }
+
+/// The most steps one run takes: days of wall time at the fastest step rates; a time
+/// or step count beyond it is a typo, not a run.
+const MAX_RUN_STEPS: f64 = 1e12;
+
+/// `--threads` at most this many times the cores.
+const MAX_THREADS_PER_CORE: usize = 4;
 
 /// Exit codes: 0 ok, 1 failure during a run, 2 bad input.
 pub fn main_with(cli: Cli) -> ExitCode {
@@ -317,7 +327,20 @@ fn check(args: CheckArgs) -> ExitCode {
     verdict
 }
 
-fn init_tracing(trace: Option<&Path>) -> Option<tracing_chrome::FlushGuard> {
+/// The file of `--trace`, created before the run starts: a path in a missing directory,
+/// or a directory, is bad input.
+fn create_trace_file(scene: &Path, trace: &Path) -> Result<std::fs::File, SceneError> {
+    std::fs::File::create(trace).map_err(|e| SceneError {
+        file: scene.to_path_buf(),
+        field: "--trace".into(),
+        message: format!(
+            "cannot create the trace file {}: {e}; expected a file path in an existing directory",
+            trace.display()
+        ),
+    })
+}
+
+fn init_tracing(trace: Option<std::fs::File>) -> Option<tracing_chrome::FlushGuard> {
     use tracing_subscriber::filter::{filter_fn, FilterExt};
     use tracing_subscriber::prelude::*;
     let filter =
@@ -331,9 +354,9 @@ fn init_tracing(trace: Option<&Path>) -> Option<tracing_chrome::FlushGuard> {
         .with_target(false)
         .with_filter(filter.and(filter_fn(|meta| meta.is_event())));
     match trace {
-        Some(path) => {
+        Some(file) => {
             let (chrome, guard) = tracing_chrome::ChromeLayerBuilder::new()
-                .file(path)
+                .writer(file)
                 .include_args(true)
                 .build();
             tracing_subscriber::registry().with(fmt).with(chrome).init();
@@ -347,15 +370,22 @@ fn init_tracing(trace: Option<&Path>) -> Option<tracing_chrome::FlushGuard> {
 }
 
 fn run(args: RunArgs) -> ExitCode {
-    let _guard = init_tracing(args.trace.as_deref());
+    let trace = match args.trace.as_deref() {
+        Some(path) => match create_trace_file(&args.scene, path) {
+            Ok(file) => Some(file),
+            Err(e) => return bad_input(e),
+        },
+        None => None,
+    };
+    let _guard = init_tracing(trace);
     let scene = match scene::load(&args.scene, &args.set) {
         Ok(s) => s,
         Err(e) => return bad_input(e),
     };
     let dt = scene.simulation.dt;
-    let steps = match (args.steps, args.until) {
-        (Some(n), _) => n,
-        (None, Some(t)) if t.is_finite() && t >= 0.0 => (t / dt).round() as u64,
+    let (steps, steps_from) = match (args.steps, args.until) {
+        (Some(n), _) => (n as f64, "--steps"),
+        (None, Some(t)) if t.is_finite() && t >= 0.0 => ((t / dt).round(), "--until"),
         (None, Some(t)) => {
             return bad_input(SceneError {
                 file: args.scene.clone(),
@@ -363,16 +393,31 @@ fn run(args: RunArgs) -> ExitCode {
                 message: format!("expected a time >= 0, got {t}"),
             })
         }
-        (None, None) => (scene.simulation.end_time / dt).round() as u64,
+        (None, None) => (
+            (scene.simulation.end_time / dt).round(),
+            "simulation.end_time",
+        ),
     };
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    if threads == 0 {
+    if steps > MAX_RUN_STEPS {
+        return bad_input(SceneError {
+            file: args.scene.clone(),
+            field: steps_from.into(),
+            message: format!(
+                "{steps:.3e} steps of dt = {dt:.3e} s; expected at most {MAX_RUN_STEPS:e} steps in one run"
+            ),
+        });
+    }
+    let steps = steps as u64;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max_threads = MAX_THREADS_PER_CORE * cores;
+    let threads = args.threads.unwrap_or(cores);
+    if !(1..=max_threads).contains(&threads) {
         return bad_input(SceneError {
             file: args.scene.clone(),
             field: "--threads".into(),
-            message: "expected at least 1".into(),
+            message: format!(
+                "expected 1 to {max_threads} ({MAX_THREADS_PER_CORE} x the {cores} cores of this machine), got {threads}"
+            ),
         });
     }
     let out_dir = args

@@ -31,6 +31,17 @@ pub struct ParticleOutput {
     pub fluid: Option<hdf5::File>,
 }
 
+/// The files `grainflow run` writes into its output directory; a run removes those of an
+/// earlier run first, and no other file.
+pub const RUN_FILES: [&str; 6] = [
+    "particles.h5",
+    "particles.xdmf",
+    "fluid.h5",
+    "fluid.xdmf",
+    "coupling.csv",
+    "summary.json",
+];
+
 impl ParticleOutput {
     /// Whether the writer writes a frame at the end of the step that reaches simulated
     /// `time` (time step `dt`).
@@ -38,9 +49,23 @@ impl ParticleOutput {
         self.interval > 0.0 && time + 0.5 * dt >= self.next_time
     }
 
+    /// Create `dir` if missing and remove the files of an earlier run in it
+    /// ([`RUN_FILES`]), then start `particles.h5`.
     pub fn create(dir: &Path, interval: f64) -> Result<Self, String> {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create output directory {}: {e}", dir.display()))?;
+        for name in RUN_FILES {
+            let path = dir.join(name);
+            match std::fs::remove_file(&path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(format!(
+                        "cannot remove {} of an earlier run: {e}",
+                        path.display()
+                    ))
+                }
+                _ => {}
+            }
+        }
         let path = dir.join("particles.h5");
         let file = hdf5::File::create(&path)
             .map_err(|e| format!("cannot create {}: {e}", path.display()))?;

@@ -204,8 +204,13 @@ impl Simulation {
         });
         let mut last_log = Instant::now();
         let mut particle_steps = 0.0;
-        let mut failure = None;
+        // A state the start-up already found unphysical (particles placed overlapping)
+        // fails at step 0, before any step.
+        let mut failure = self.failure();
         for k in 0..steps {
+            if failure.is_some() {
+                break;
+            }
             awake.rearm();
             particle_steps += self.world.resource::<Particles>().len() as f64;
             // The last step leaves the corrected state (for the summary and the last frame).

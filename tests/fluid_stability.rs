@@ -74,7 +74,7 @@ fn a_healthy_cavity_runs_and_a_runaway_flow_stops_the_run_naming_the_face() {
     let (value, d, x) = fastest(&sim);
     assert!(value.abs() > 100.0, "{value}");
     for part in [
-        "unstable at step 20",
+        "unstable at step 21",
         "fluid step 21",
         "runaway flow",
         &format!("velocity component {} = {value:.3e}", ["x", "y", "z"][d]),
@@ -95,7 +95,7 @@ fn a_non_finite_flow_stops_the_run() {
     assert_eq!(report.steps, 1);
     let failure = report.failure.expect("a NaN in the flow stops the run");
     assert!(
-        failure.contains("unstable at step 2") && failure.contains("non-finite velocity"),
+        failure.contains("unstable at step 3") && failure.contains("non-finite velocity"),
         "{failure}"
     );
 }

@@ -1,7 +1,8 @@
 //! Output files a user opens: the log on stderr (plain lines when it is not a terminal), particles.h5 (one group per frame, rows by stable id, the
 //! `time` attribute), the particles.xdmf sidecar whose every data path exists in the HDF5
 //! file, summary.json, the Chrome trace with a span per system, and particles read from a
-//! LAMMPS `atom_style sphere` data file; coupling.csv written fluid step by fluid step.
+//! LAMMPS `atom_style sphere` data file; coupling.csv written fluid step by fluid step; the
+//! files of an earlier run in the output directory removed, the user's kept.
 use std::path::Path;
 
 use grainflow::run::Simulation;
@@ -161,6 +162,60 @@ fn a_piped_log_is_plain_text() {
     assert!(
         !err.contains('\u{1b}'),
         "escape codes in a piped log: {err:?}"
+    );
+}
+
+/// A run into the directory of an earlier one removes that run's files (here a flow and a
+/// coupling history a dry scene does not write) and keeps the user's; a scene refused as
+/// bad input leaves the directory as it was.
+#[test]
+fn a_run_removes_the_files_of_an_earlier_run_in_its_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::write_scene(dir.path(), "out.toml", SCENE);
+    std::fs::write(dir.path().join("atoms.data"), DATA).unwrap();
+    let run_dir = dir.path().join("run");
+    std::fs::create_dir(&run_dir).unwrap();
+    let earlier = ["fluid.h5", "fluid.xdmf", "coupling.csv", "summary.json"];
+    for name in earlier.iter().chain(&["notes.txt"]) {
+        std::fs::write(run_dir.join(name), "earlier").unwrap();
+    }
+    let run = |scene: &Path| {
+        common::run_cli(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--steps",
+            "10",
+            "--out",
+            run_dir.to_str().unwrap(),
+        ])
+    };
+
+    let bad = common::write_scene(
+        dir.path(),
+        "bad.toml",
+        &SCENE.replace("dt = 1.0e-5", "dt = -1.0e-5"),
+    );
+    let (code, _, stderr) = run(&bad);
+    assert_eq!(code, 2, "{stderr}");
+    for name in earlier.iter().chain(&["notes.txt"]) {
+        assert!(run_dir.join(name).exists(), "bad input removed {name}");
+    }
+
+    let (code, _, stderr) = run(&scene);
+    assert_eq!(code, 0, "{stderr}");
+    for name in ["fluid.h5", "fluid.xdmf", "coupling.csv"] {
+        assert!(
+            !run_dir.join(name).exists(),
+            "{name} of the earlier run is left"
+        );
+    }
+    let summary = std::fs::read_to_string(run_dir.join("summary.json")).unwrap();
+    assert!(summary.contains("\"steps\": 10"), "{summary}");
+    assert!(run_dir.join("particles.h5").exists());
+    assert_eq!(
+        std::fs::read_to_string(run_dir.join("notes.txt")).unwrap(),
+        "earlier",
+        "a file grainflow does not write is kept"
     );
 }
 

@@ -337,6 +337,78 @@ fn bad_set_overrides_exit_2_naming_file_and_key() {
     );
 }
 
+/// `grainflow run` of the good scene with `flags` must exit with code 2 before it steps,
+/// naming the scene file and `flag`; returns the message.
+fn run_flag_rejected(dir: &Path, flags: &[&str], flag: &str) -> String {
+    let scene = write_scene(dir, "good.toml", GOOD);
+    let out = dir.join("out");
+    let mut args = vec![
+        "run",
+        scene.to_str().expect("utf-8 path"),
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ];
+    args.extend_from_slice(flags);
+    let (code, stdout, stderr) = run_cli(&args);
+    assert_eq!(
+        code, 2,
+        "grainflow {args:?}: expected exit code 2\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+    assert!(
+        stderr.contains(&format!("`{flag}`")) && stderr.contains(args[1]),
+        "grainflow {args:?}: the message does not name `{flag}` and the scene:\n{stderr}"
+    );
+    assert!(
+        !out.join("summary.json").exists(),
+        "grainflow {args:?}: a refused run wrote output"
+    );
+    stderr
+}
+
+#[test]
+fn a_trace_file_that_cannot_be_created_exits_2_naming_the_path() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let missing = d.join("no-such-dir").join("trace.json");
+    let missing = missing.to_str().expect("utf-8 path");
+    let stderr = run_flag_rejected(d, &["--steps", "1", "--trace", missing], "--trace");
+    assert!(stderr.contains(missing), "{stderr}");
+    let directory = d.to_str().expect("utf-8 path");
+    let stderr = run_flag_rejected(d, &["--steps", "1", "--trace", directory], "--trace");
+    assert!(
+        stderr.contains(&format!("trace file {directory}")),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn threads_out_of_range_exit_2() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for threads in ["0", "100000"] {
+        let stderr = run_flag_rejected(
+            dir.path(),
+            &["--steps", "1", "--threads", threads],
+            "--threads",
+        );
+        assert!(
+            stderr.contains("expected 1 to") && stderr.contains(&format!("got {threads}")),
+            "{stderr}"
+        );
+    }
+}
+
+#[test]
+fn step_counts_beyond_1e12_exit_2_naming_the_flag_and_dt() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let stderr = run_flag_rejected(dir.path(), &["--until", "1e300"], "--until");
+    assert!(
+        stderr.contains("5.000e305 steps of dt = 2.000e-6 s") && stderr.contains("at most 1e12"),
+        "{stderr}"
+    );
+    let stderr = run_flag_rejected(dir.path(), &["--steps", "18446744073709551615"], "--steps");
+    assert!(stderr.contains("1.845e19 steps"), "{stderr}");
+}
+
 /// The system names of `grainflow check`'s schedule block.
 fn schedule(stdout: &str) -> Vec<String> {
     let mut lines = stdout

@@ -178,6 +178,39 @@ fn failing_step(stderr: &str) -> u64 {
         .expect("step number")
 }
 
+/// `total_steps` of the run's summary.json in `out`.
+fn summary_total_steps(out: &Path) -> u64 {
+    let text = std::fs::read_to_string(out.join("summary.json")).expect("summary.json");
+    let summary: serde_json::Value = serde_json::from_str(&text).expect("summary.json is JSON");
+    summary["total_steps"].as_u64().expect("total_steps")
+}
+
+/// Spheres placed overlapping by 150 % of the radius fail before the first step: the
+/// message says step 0 and summary.json counts 0 steps.
+#[test]
+fn spheres_placed_overlapping_fail_at_step_0() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut text = header(1e-7);
+    for z in [0.005, 0.0055] {
+        text += &format!(
+            "\n[[spheres]]\nmaterial = \"grain\"\nradius = {R}\nposition = [0.003, 0.003, {z}]\n"
+        );
+    }
+    let scene = write_scene(dir.path(), "overlapping.toml", &text);
+    let out = dir.path().join("out");
+    let (code, _, stderr) = run_cli(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--steps",
+        "5",
+    ]);
+    assert_eq!(code, 1, "expected exit code 1 (unstable):\n{stderr}");
+    assert_eq!(failing_step(&stderr), 0, "{stderr}");
+    assert_eq!(summary_total_steps(&out), 0);
+}
+
 #[test]
 fn check_warns_below_the_rayleigh_step_and_unstable_runs_stop_cleanly() {
     let dt_r = rayleigh_time_step(R, E, NU, RHO);
@@ -250,6 +283,11 @@ fn check_warns_below_the_rayleigh_step_and_unstable_runs_stop_cleanly() {
             r.stderr.contains(" particle "),
             "the message names no particle:\n{}",
             r.stderr
+        );
+        assert_eq!(
+            summary_total_steps(&dir.path().join(format!("x{f}"))),
+            step,
+            "the message and summary.json count the steps alike"
         );
         eprintln!("run at {f} dt_R: stopped at step {step}");
         assert!(

@@ -111,9 +111,13 @@ pub fn multigrid_fluid(
     });
     let scale = flow.velocity_scale.max(fastest_particle);
     if let Some(what) = flow_instability(&flow.solver, scale) {
+        // The step under way, counted from 1 as the monitor and summary.json count (the
+        // clock advances at the end of the step), and the time at its end.
         health.failure = Some(format!(
             "unstable at step {} (t = {:.6e} s), fluid step {}: {what}",
-            clock.step, clock.time, flow.stats.steps
+            clock.step + 1,
+            (clock.step + 1) as f64 * clock.dt,
+            flow.stats.steps
         ));
     }
 }
