@@ -336,6 +336,9 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             .position(|m| m.name == name)
             .expect("validated material name") as u16
     };
+    if let Some(available) = crate::memory::available_memory() {
+        crate::memory::check_fits(&crate::memory::scene_memory(scene), available, path)?;
+    }
     let flow = match &scene.fluid {
         Some(f) => crate::fluid::fluid_grid(f, path)?
             .map(|grid| crate::fluid::fluid_flow(f, &grid, scene.simulation.gravity)),
@@ -545,6 +548,21 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         world.insert_resource(Inflows {
             list,
             next_id: particles.len() as u32,
+        });
+    }
+    if integrator.is_some() {
+        // The balance holds where only contacts and the body acceleration act: no flow
+        // doing work, no particles moved on a path, no adhesion (its surface energy is
+        // not counted).
+        let adhesive = world
+            .get_resource::<ContactLaws>()
+            .is_some_and(|l| l.pairs.iter().any(|p| p.adhesion.is_some()));
+        world.insert_resource(EnergyBalance {
+            enforced: !world.contains_resource::<Coupling>()
+                && !world.contains_resource::<Clamped>()
+                && !adhesive,
+            tolerance: scene.simulation.energy_growth_limit,
+            ..Default::default()
         });
     }
     world.insert_resource(particles);

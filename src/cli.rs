@@ -177,6 +177,16 @@ fn check(args: CheckArgs) -> ExitCode {
             .join(", ")
     );
     let _ = writeln!(out, "walls      {}", scene.walls.len());
+    let needed = crate::memory::total_bytes(&crate::memory::scene_memory(&scene));
+    let _ = writeln!(
+        out,
+        "memory     at least {} for the particles and the fluid grid{}",
+        crate::memory::gigabytes(needed),
+        crate::memory::available_memory().map_or(String::new(), |a| format!(
+            " ({} available)",
+            crate::memory::gigabytes(a)
+        ))
+    );
     let _ = writeln!(
         out,
         "integrator {:?}, dt = {dt:.3e} s, end_time = {} s ({} steps)",

@@ -5,6 +5,7 @@ pub mod cli;
 pub mod cloud;
 pub mod fluid;
 pub mod lammps;
+pub mod memory;
 pub mod observables;
 pub mod output;
 pub mod plot;

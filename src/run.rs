@@ -6,8 +6,8 @@ use std::time::Instant;
 
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Clamped, ContactHistory, GearState, Materials, Particles, PerParticle, PredictAhead, Rotation,
-    RunHealth, SimClock, VerletList, VerletState, WallHistory,
+    Clamped, ContactHistory, EnergyBalance, GearState, Materials, Particles, PerParticle,
+    PredictAhead, Rotation, RunHealth, SimClock, VerletList, VerletState, WallHistory,
 };
 use grainflow_systems::fluid::FluidFlow;
 use grainflow_systems::monitor::kinetic_energy;
@@ -384,6 +384,31 @@ impl Simulation {
         (pairs + walls) as f64
     }
 
+    /// The energy balance of the last check (`energy_monitor`), J; `null` without
+    /// particles.
+    fn energy_summary(&self) -> serde_json::Value {
+        let Some(e) = self.world.get_resource::<EnergyBalance>() else {
+            return serde_json::Value::Null;
+        };
+        serde_json::json!({
+            "initial": e.initial,
+            "inserted": e.inserted,
+            "total": e.total(),
+            "kinetic": e.kinetic,
+            "rotational": e.rotational,
+            "potential": e.potential,
+            "elastic": e.elastic,
+            "dissipated": e.dissipated(),
+            "largest_growth": e.largest_growth,
+            "largest_growth_step": e.largest_growth_step,
+            "scale": e.scale,
+            "growth_limit": e.tolerance,
+            "enforced": e.enforced,
+            "checks": e.checks,
+            "checked_step": e.checked_step,
+        })
+    }
+
     /// The run report as JSON (`summary.json`).
     pub fn summary(&self, report: &RunReport, threads: usize) -> serde_json::Value {
         let clock = self.world.resource::<SimClock>();
@@ -426,6 +451,7 @@ impl Simulation {
                 crate::scene::IntegratorName::VelocityVerlet => "velocity_verlet",
             },
             "schedule": self.coupled_step.systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
+            "energy": self.energy_summary(),
             "fluid": self.fluid_summary(),
             "observables": observables(&self.world, &self.scene),
         })

@@ -97,6 +97,12 @@ pub struct Simulation {
     /// Overlap (fraction of the smaller radius) at which a run is stopped as unstable.
     #[serde(default = "default_overlap_limit")]
     pub overlap_limit: f64,
+    /// Growth of the particles' mechanical energy, as a fraction of its scale (the
+    /// largest kinetic energy, at least m |a| r summed), at which a run is stopped as
+    /// unstable (`energy_monitor`; enforced only without flow coupling, fixed particles
+    /// or adhesion).
+    #[serde(default = "default_energy_growth_limit")]
+    pub energy_growth_limit: f64,
     /// Seed of the random placement (blocks, inflows).
     #[serde(default = "default_seed")]
     pub seed: u64,
@@ -110,6 +116,9 @@ fn default_gravity() -> [f64; 3] {
 }
 fn default_overlap_limit() -> f64 {
     0.2
+}
+fn default_energy_growth_limit() -> f64 {
+    0.1
 }
 fn default_seed() -> u64 {
     1
@@ -1017,6 +1026,10 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
         ));
     }
     positive("simulation.overlap_limit".into(), sim.overlap_limit)?;
+    positive(
+        "simulation.energy_growth_limit".into(),
+        sim.energy_growth_limit,
+    )?;
     if let Some(f) = &s.fluid {
         if !(f.density.is_finite() && f.density >= 0.0) {
             return Err((

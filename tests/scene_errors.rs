@@ -590,3 +590,30 @@ fn bad_boundary_rules_exit_2_naming_the_field() {
         assert!(message.contains(expected), "{file}: {message}");
     }
 }
+
+/// A scene whose state would not fit in the machine's memory is refused before anything
+/// is allocated (exit 2), naming its largest source, the estimate and what is available
+/// (`src/memory.rs`: at least 285 bytes per particle and 200 per fluid degree of
+/// freedom). A block of about 10^11 sites (some 30 TB) and a fluid grid of 2048^3 cells
+/// (some 20 TB) exceed any machine this runs on.
+#[test]
+fn scenes_beyond_the_machines_memory_exit_2_naming_the_source() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let block = format!(
+        "{GOOD}\n[[blocks]]\nmaterial = \"steel\"\nradius = 1.0e-4\nmin = [-0.5, -0.5, 0.1]\n\
+         max = [0.5, 0.5, 1.1]\n"
+    );
+    let grid = in_fluid("").replace("cells = [2, 2, 2]", "cells = [16, 16, 16]\nlevel = 8");
+    for (name, text, field) in [
+        ("huge_block.toml", block, "blocks[0]"),
+        ("huge_grid.toml", grid, "fluid.level"),
+    ] {
+        let path = write_scene(d, name, &text);
+        let message = rejected(d, &path, &[], field);
+        assert!(
+            message.contains("GB") && message.contains("available"),
+            "{name}: the message gives no estimate against available memory:\n{message}"
+        );
+    }
+}

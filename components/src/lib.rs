@@ -9,6 +9,7 @@
 pub mod clock;
 pub mod contact_law;
 pub mod coupling;
+pub mod energy;
 pub mod health;
 pub mod inflow;
 pub mod integrator;
@@ -28,6 +29,7 @@ pub use coupling::{
     BoundaryRule, CellMarkers, Coupling, ForceMethod, HydroForces, ParticleFace, ParticleUpdate,
     SphereRule,
 };
+pub use energy::EnergyBalance;
 pub use health::RunHealth;
 pub use inflow::{Inflow, InflowRegion, Inflows};
 pub use integrator::{GearState, IntegratorKind, PredictAhead, VerletState};

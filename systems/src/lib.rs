@@ -11,6 +11,7 @@
 pub mod clamp;
 pub mod compressed_rows;
 pub mod coupling;
+pub mod energy;
 pub mod fluid;
 pub mod friction;
 pub mod gear;

@@ -44,7 +44,8 @@
 //!     path. When the run loop grants `PredictAhead` (see
 //!     [`corrector_may_predict_ahead`]), the translation corrector also runs the next
 //!     step's predictor on each row in the same pass
-//! 12. `Monitor`: stability checks (overlap, non-finite state)
+//! 12. `Monitor`: stability checks (overlap, non-finite state) and the energy balance
+//!     (`energy_monitor`, every 64 steps)
 //! 13. `Output`: writers (added by the application)
 //!
 //! A scene gets only the systems whose `wanted` test passes on its world, so a scene
@@ -60,8 +61,8 @@ use crate::fluid::{has_fluid, FluidFlow};
 use crate::granular::has_contact_laws;
 use crate::rotation::has_rotation;
 use crate::{
-    clamp, coupling, fluid, gear, granular, hertz, inflow, monitor, neighbour_list, rotation, rows,
-    verlet, walls,
+    clamp, coupling, energy, fluid, gear, granular, hertz, inflow, monitor, neighbour_list,
+    rotation, rows, verlet, walls,
 };
 use grainflow_components::{Clamped, Coupling, HydroForces, Rotation};
 
@@ -500,6 +501,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: has_dem,
         add: |s, set| {
             s.add_systems(monitor::stability_monitor.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "energy_monitor",
+        set: StepSet::Monitor,
+        phase: Phase::Both,
+        wanted: has_dem,
+        add: |s, set| {
+            s.add_systems(energy::energy_monitor.in_set(set));
         },
     },
 ];
