@@ -172,7 +172,7 @@ pub fn energy_monitor(
     mut health: ResMut<RunHealth>,
 ) {
     let first = balance.checks == 0;
-    if !first && clock.step % ENERGY_CHECK_INTERVAL != 0 {
+    if !first && !clock.step.is_multiple_of(ENERGY_CHECK_INTERVAL) {
         return;
     }
     let _span = tracing::info_span!("energy_monitor").entered();
