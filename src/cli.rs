@@ -9,7 +9,10 @@ use clap::{Args, Parser, Subcommand};
 use grainflow_systems::schedule::{DEM_FIRST_HALF, FLUID_STEP};
 use grainflow_systems::CoupledStep;
 
-use crate::run::{default_out_dir, Simulation};
+use std::sync::atomic::{AtomicI32, Ordering};
+
+use crate::checkpoint::SavedScene;
+use crate::run::{default_out_dir, RunControl, Simulation};
 use crate::scene::{self, SceneError};
 
 #[derive(Parser, Debug)]
@@ -27,6 +30,8 @@ pub struct Cli {
 pub enum Command {
     /// Run a scene and write particles.h5, particles.xdmf and summary.json.
     Run(RunArgs),
+    /// Continue a run from its last checkpoint, appending to its output.
+    Resume(ResumeArgs),
     /// Validate a scene; print its schedule, particle count and stable time steps.
     Check(CheckArgs),
     /// Write PNG plots of a run: flow contour slices, particle time series, side views.
@@ -57,6 +62,28 @@ pub struct RunArgs {
     /// Override a scene field, e.g. --set simulation.dt=2e-6 --set walls.0.remove_at=1.0
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Write checkpoint.h5 at every multiple of this simulated time (a number, s) or
+    /// after this much wall-clock time (with a unit: 90s, 30min, 2h); may be repeated.
+    #[arg(long = "checkpoint-every", value_name = "T")]
+    pub checkpoint_every: Vec<String>,
+}
+
+#[derive(Args, Debug)]
+pub struct ResumeArgs {
+    /// Run directory holding checkpoint.h5 (and the run's particles.h5).
+    pub dir: PathBuf,
+    /// Run until this simulated time, s (default: the scene's end_time).
+    #[arg(long, conflicts_with = "steps")]
+    pub until: Option<f64>,
+    /// Run this many more steps.
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Worker threads, 1 to 4 x the cores (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Checkpoint interval, as for `run`.
+    #[arg(long = "checkpoint-every", value_name = "T")]
+    pub checkpoint_every: Vec<String>,
 }
 
 #[derive(Args, Debug)]
@@ -77,6 +104,7 @@ const MAX_THREADS_PER_CORE: usize = 4;
 pub fn main_with(cli: Cli) -> ExitCode {
     match cli.command {
         Command::Run(args) => run(args),
+        Command::Resume(args) => resume(args),
         Command::Check(args) => check(args),
         Command::Plot(args) => crate::plot::main(args),
     }
@@ -393,48 +421,32 @@ fn run(args: RunArgs) -> ExitCode {
         Err(e) => return bad_input(e),
     };
     let dt = scene.simulation.dt;
-    let (steps, steps_from) = match (args.steps, args.until) {
-        (Some(n), _) => (n as f64, "--steps"),
-        (None, Some(t)) if t.is_finite() && t >= 0.0 => ((t / dt).round(), "--until"),
-        (None, Some(t)) => {
-            return bad_input(SceneError {
-                file: args.scene.clone(),
-                field: "--until".into(),
-                message: format!("expected a time >= 0, got {t}"),
-            })
-        }
-        (None, None) => (
-            (scene.simulation.end_time / dt).round(),
-            "simulation.end_time",
-        ),
+    let target = match run_steps(
+        &args.scene,
+        dt,
+        scene.simulation.end_time,
+        0,
+        args.steps,
+        args.until,
+    ) {
+        Ok(t) => t,
+        Err(e) => return bad_input(e),
     };
-    if steps > MAX_RUN_STEPS {
-        return bad_input(SceneError {
-            file: args.scene.clone(),
-            field: steps_from.into(),
-            message: format!(
-                "{steps:.3e} steps of dt = {dt:.3e} s; expected at most {MAX_RUN_STEPS:e} steps in one run"
-            ),
-        });
-    }
-    let steps = steps as u64;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let max_threads = MAX_THREADS_PER_CORE * cores;
-    let threads = args.threads.unwrap_or(cores);
-    if !(1..=max_threads).contains(&threads) {
-        return bad_input(SceneError {
-            file: args.scene.clone(),
-            field: "--threads".into(),
-            message: format!(
-                "expected 1 to {max_threads} ({MAX_THREADS_PER_CORE} x the {cores} cores of this machine), got {threads}"
-            ),
-        });
-    }
+    let threads = match thread_count(&args.scene, args.threads) {
+        Ok(t) => t,
+        Err(e) => return bad_input(e),
+    };
+    let (every_time, every_wall) = match checkpoint_intervals(&args.scene, &args.checkpoint_every) {
+        Ok(e) => e,
+        Err(e) => return bad_input(e),
+    };
     let out_dir = args
         .out
         .clone()
         .unwrap_or_else(|| default_out_dir(&args.scene));
     let interval = scene.simulation.output_interval;
+    let text = std::fs::read_to_string(&args.scene).unwrap_or_default();
+    let scene_path = std::fs::canonicalize(&args.scene).unwrap_or_else(|_| args.scene.clone());
     let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
         Ok(p) => p,
         Err(e) => {
@@ -443,22 +455,243 @@ fn run(args: RunArgs) -> ExitCode {
         }
     };
     pool.install(|| {
-        let mut sim = match Simulation::new(scene, &args.scene, Some((&out_dir, interval))) {
+        let sim = match Simulation::new(scene, &args.scene, Some((&out_dir, interval))) {
             Ok(s) => s,
             Err(e) => return bad_input(e),
         };
+        if (every_time.is_some() || every_wall.is_some()) && !sim.can_checkpoint() {
+            return bad_input(SceneError {
+                file: args.scene.clone(),
+                field: "--checkpoint-every".into(),
+                message: "expected a scene without a fluid grid: the flow's state is not checkpointed yet".into(),
+            });
+        }
+        let control = RunControl {
+            every_time,
+            every_wall,
+            dir: Some(out_dir.clone()),
+            scene: Some(SavedScene {
+                text,
+                path: scene_path,
+                overrides: args.set.clone(),
+            }),
+            interrupt: Some(install_signal_handlers()),
+            ..Default::default()
+        };
+        execute(sim, target, threads, &out_dir, &args.scene, control)
+    })
+}
+
+/// Continue the run of `args.dir` from its checkpoint.
+fn resume(args: ResumeArgs) -> ExitCode {
+    let _guard = init_tracing(None);
+    let checkpoint = match crate::checkpoint::read_checkpoint(&args.dir) {
+        Ok(c) => c,
+        Err(message) => {
+            return bad_input(SceneError {
+                file: args.dir.join(crate::checkpoint::CHECKPOINT_FILE),
+                field: String::new(),
+                message,
+            })
+        }
+    };
+    let file = args.dir.join(crate::checkpoint::CHECKPOINT_FILE);
+    let (every_time, every_wall) = match checkpoint_intervals(&file, &args.checkpoint_every) {
+        Ok(e) => e,
+        Err(e) => return bad_input(e),
+    };
+    let threads = match thread_count(&file, args.threads) {
+        Ok(t) => t,
+        Err(e) => return bad_input(e),
+    };
+    let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: cannot start {threads} threads: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    pool.install(|| {
+        let sim = match Simulation::resume(&args.dir, &checkpoint) {
+            Ok(s) => s,
+            Err(e) => return bad_input(e),
+        };
+        let sim_scene = &sim.scene.simulation;
+        let target = match run_steps(
+            &file,
+            sim_scene.dt,
+            sim_scene.end_time,
+            checkpoint.step,
+            args.steps,
+            args.until,
+        ) {
+            Ok(t) => t,
+            Err(e) => return bad_input(e),
+        };
+        tracing::info!(
+            "resuming {} at step {} (t = {} s)",
+            args.dir.display(),
+            checkpoint.step,
+            checkpoint.time
+        );
+        let control = RunControl {
+            every_time,
+            every_wall,
+            dir: Some(args.dir.clone()),
+            scene: Some(SavedScene {
+                text: checkpoint.scene.text.clone(),
+                path: checkpoint.scene.path.clone(),
+                overrides: checkpoint.scene.overrides.clone(),
+            }),
+            interrupt: Some(install_signal_handlers()),
+            ..Default::default()
+        };
+        execute(sim, target, threads, &args.dir, &file, control)
+    })
+}
+
+/// Steps to run from `step_now`: `--steps N`, or up to `--until T`, or to `end_time`;
+/// at most `MAX_RUN_STEPS`.
+fn run_steps(
+    file: &Path,
+    dt: f64,
+    end_time: f64,
+    step_now: u64,
+    steps: Option<u64>,
+    until: Option<f64>,
+) -> Result<u64, SceneError> {
+    let err = |field: &str, message: String| SceneError {
+        file: file.to_path_buf(),
+        field: field.into(),
+        message,
+    };
+    let (steps, steps_from) = match (steps, until) {
+        (Some(n), _) => (n as f64, "--steps"),
+        (None, Some(t)) if t.is_finite() && t >= 0.0 => {
+            (((t / dt).round() - step_now as f64).max(0.0), "--until")
+        }
+        (None, Some(t)) => return Err(err("--until", format!("expected a time >= 0, got {t}"))),
+        (None, None) => (
+            ((end_time / dt).round() - step_now as f64).max(0.0),
+            "simulation.end_time",
+        ),
+    };
+    if steps > MAX_RUN_STEPS {
+        return Err(err(
+            steps_from,
+            format!("{steps:.3e} steps of dt = {dt:.3e} s; expected at most {MAX_RUN_STEPS:e} steps in one run"),
+        ));
+    }
+    Ok(steps as u64)
+}
+
+/// `--threads`, 1 to [`MAX_THREADS_PER_CORE`] x the cores (default: the cores).
+fn thread_count(file: &Path, threads: Option<usize>) -> Result<usize, SceneError> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max_threads = MAX_THREADS_PER_CORE * cores;
+    let threads = threads.unwrap_or(cores);
+    if (1..=max_threads).contains(&threads) {
+        Ok(threads)
+    } else {
+        Err(SceneError {
+            file: file.to_path_buf(),
+            field: "--threads".into(),
+            message: format!(
+                "expected 1 to {max_threads} ({MAX_THREADS_PER_CORE} x the {cores} cores of this machine), got {threads}"
+            ),
+        })
+    }
+}
+
+/// The `--checkpoint-every` values: simulated seconds (a plain number) and wall-clock
+/// seconds (a number with `s`, `min` or `h`), each finite and > 0; the last of each kind
+/// counts.
+fn checkpoint_intervals(
+    file: &Path,
+    values: &[String],
+) -> Result<(Option<f64>, Option<f64>), SceneError> {
+    let mut sim = None;
+    let mut wall = None;
+    for v in values.iter().flat_map(|v| v.split(',')) {
+        let v = v.trim();
+        let (number, unit) = [("min", 60.0), ("h", 3600.0), ("s", 1.0)]
+            .iter()
+            .find_map(|&(u, f)| v.strip_suffix(u).map(|n| (n, Some(f))))
+            .unwrap_or((v, None));
+        match number.trim().parse::<f64>() {
+            Ok(x) if x.is_finite() && x > 0.0 => match unit {
+                Some(f) => wall = Some(x * f),
+                None => sim = Some(x),
+            },
+            _ => {
+                return Err(SceneError {
+                    file: file.to_path_buf(),
+                    field: "--checkpoint-every".into(),
+                    message: format!(
+                        "expected a simulated time > 0 (e.g. 0.5) or a wall-clock interval > 0 with a unit (90s, 30min, 2h), got `{v}`"
+                    ),
+                })
+            }
+        }
+    }
+    Ok((sim, wall))
+}
+
+/// The signal number of the first SIGINT or SIGTERM received, 0 before.
+static SIGNAL_RECEIVED: AtomicI32 = AtomicI32::new(0);
+
+extern "C" fn on_signal(signal: i32) {
+    SIGNAL_RECEIVED.store(signal, Ordering::SeqCst);
+}
+
+extern "C" {
+    /// The C library's `signal(2)`.
+    fn signal(signum: i32, handler: extern "C" fn(i32)) -> usize;
+}
+
+const SIGINT: i32 = 2;
+const SIGTERM: i32 = 15;
+
+/// Catch SIGINT and SIGTERM: the run finishes its step, checkpoints and stops
+/// (exit 128 + the signal).
+fn install_signal_handlers() -> &'static AtomicI32 {
+    // SAFETY: the handler only stores into an atomic, which is async-signal-safe.
+    unsafe {
+        signal(SIGINT, on_signal);
+        signal(SIGTERM, on_signal);
+    }
+    &SIGNAL_RECEIVED
+}
+
+/// Run `sim` for `steps` under `control`, write `summary.json` into `out_dir` and report;
+/// `label` names the scene (or checkpoint) in messages.
+fn execute(
+    mut sim: Simulation,
+    steps: u64,
+    threads: usize,
+    out_dir: &Path,
+    label: &Path,
+    mut control: RunControl,
+) -> ExitCode {
+    {
+        let dt = sim.scene.simulation.dt;
         tracing::info!(
             "{}: {} particles, {} steps of {:.3e} s on {threads} threads -> {}",
-            args.scene.display(),
-            sim.world.resource::<grainflow_components::Particles>().len(),
+            label.display(),
+            sim.world
+                .resource::<grainflow_components::Particles>()
+                .len(),
             steps,
             dt,
             out_dir.display()
         );
-        let report = sim.run(steps);
+        let report = sim.run_with(steps, &mut control);
         let summary = sim.summary(&report, threads);
         let summary_path = out_dir.join("summary.json");
-        if let Err(e) = std::fs::write(&summary_path, serde_json::to_string_pretty(&summary).expect("json") + "\n") {
+        if let Err(e) = std::fs::write(
+            &summary_path,
+            serde_json::to_string_pretty(&summary).expect("json") + "\n",
+        ) {
             eprintln!("error: cannot write {}: {e}", summary_path.display());
             return ExitCode::from(1);
         }
@@ -477,7 +710,10 @@ fn run(args: RunArgs) -> ExitCode {
         let end = sim.scene.simulation.end_time;
         let dt = sim.scene.simulation.dt;
         if sim_time + 0.5 * dt < end && report.failure.is_none() {
-            let n_now = sim.world.resource::<grainflow_components::Particles>().len();
+            let n_now = sim
+                .world
+                .resource::<grainflow_components::Particles>()
+                .len();
             let ahead = sim.particle_steps_until(end, n_now);
             if ahead > 0.0 && rate > 0.0 {
                 let _ = writeln!(
@@ -497,12 +733,33 @@ fn run(args: RunArgs) -> ExitCode {
             }
         }
         emit(&out);
-        match report.failure {
-            Some(f) => {
-                eprintln!("error: {f}; output up to the last good frame kept in {}", out_dir.display());
+        if report.checkpoints > 0 {
+            let _ = writeln!(
+                out,
+                "{} checkpoints in {:.3} s ({:.1} MB of state each) -> {}",
+                report.checkpoints,
+                report.checkpoint_seconds,
+                report.checkpoint_bytes as f64 / 1e6,
+                out_dir.join(crate::checkpoint::CHECKPOINT_FILE).display()
+            );
+        }
+        emit(&out);
+        match (report.failure, report.interrupted) {
+            (Some(f), _) => {
+                eprintln!(
+                    "error: {f}; output up to the last good frame kept in {}",
+                    out_dir.display()
+                );
                 ExitCode::from(1)
             }
-            None => ExitCode::SUCCESS,
+            (None, Some(signal)) => {
+                eprintln!(
+                    "interrupted by signal {signal} at t = {sim_time} s; continue with: grainflow resume {}",
+                    out_dir.display()
+                );
+                ExitCode::from((128 + signal) as u8)
+            }
+            (None, None) => ExitCode::SUCCESS,
         }
-    })
+    }
 }

@@ -1,6 +1,7 @@
 //! grainflow: solid particles in viscous fluid. The library behind the `grainflow` CLI:
 //! scene files, world building, schedules, run loop and output.
 pub mod build;
+pub mod checkpoint;
 pub mod cli;
 pub mod cloud;
 pub mod fluid;

@@ -80,6 +80,62 @@ impl ParticleOutput {
         })
     }
 
+    /// Open the `particles.h5` of an earlier run in `dir` to append to it, with the frames
+    /// it holds, in step order.
+    pub fn reopen(dir: &Path, interval: f64) -> Result<Self, String> {
+        let path = dir.join("particles.h5");
+        let bad = |e: hdf5::Error| format!("cannot read {}: {e}", path.display());
+        let file = hdf5::File::open_rw(&path).map_err(bad)?;
+        let mut frames = Vec::new();
+        for name in file.member_names().map_err(bad)? {
+            let Some(step) = name
+                .strip_prefix("step_")
+                .and_then(|n| n.parse::<u64>().ok())
+            else {
+                continue;
+            };
+            let group = file.group(&name).map_err(bad)?;
+            frames.push(Frame {
+                step,
+                time: group
+                    .attr("time")
+                    .and_then(|a| a.read_scalar())
+                    .map_err(bad)?,
+                particles: group.dataset("id").map_err(bad)?.size(),
+            });
+        }
+        frames.sort_by_key(|f| f.step);
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            file,
+            frames,
+            interval,
+            next_time: 0.0,
+            error: None,
+            fluid: None,
+        })
+    }
+
+    /// Keep the first `count` frames: the later ones are removed from the file and the
+    /// XDMF index.
+    pub fn keep_frames(&mut self, count: usize) -> Result<(), String> {
+        if count > self.frames.len() {
+            return Err(format!(
+                "the checkpoint counts {count} frames, particles.h5 holds {}",
+                self.frames.len()
+            ));
+        }
+        for f in self.frames.drain(count..) {
+            self.file
+                .unlink(&format!("step_{:08}", f.step))
+                .map_err(|e| format!("removing a frame from particles.h5: {e}"))?;
+        }
+        self.file
+            .flush()
+            .map_err(|e| format!("writing particles.h5: {e}"))?;
+        self.write_xdmf()
+    }
+
     /// Write the particles as frame `clock.step`, rows sorted by id, and the flow when
     /// there is one.
     pub fn write_frame(

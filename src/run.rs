@@ -2,6 +2,7 @@
 //! loop with progress reporting, and the run report (`summary.json`).
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicI32, Ordering};
 use std::time::Instant;
 
 use bevy_ecs::prelude::*;
@@ -10,6 +11,8 @@ use grainflow_components::{
     PredictAhead, Rotation, RunHealth, SimClock, VerletList, VerletState, WallHistory,
 };
 use grainflow_systems::fluid::FluidFlow;
+
+use crate::checkpoint::{write_checkpoint, Checkpoint, SavedScene, CHECKPOINT_FILE};
 use grainflow_systems::monitor::kinetic_energy;
 use grainflow_systems::schedule::{build_startup, corrector_may_predict_ahead, Slot};
 use grainflow_systems::{CoupledStep, Phase, StepSet, SystemEntry};
@@ -52,6 +55,26 @@ pub struct Simulation {
     started: bool,
 }
 
+/// Checkpoints and interruption of a run ([`Simulation::run_with`]).
+#[derive(Default)]
+pub struct RunControl {
+    /// Checkpoint at every multiple of this simulated time, s.
+    pub every_time: Option<f64>,
+    /// Checkpoint after this much wall-clock time since the last, s.
+    pub every_wall: Option<f64>,
+    /// Where checkpoints go (the run directory), and the scene they record.
+    pub dir: Option<PathBuf>,
+    pub scene: Option<SavedScene>,
+    /// Set (to the signal number) by a signal handler: the run stops after a checkpoint.
+    pub interrupt: Option<&'static AtomicI32>,
+    /// The signal that stopped the run, if one did.
+    pub interrupted: Option<i32>,
+    /// Checkpoints written, their total write time and the size of the last.
+    pub checkpoints: u32,
+    pub checkpoint_seconds: f64,
+    pub checkpoint_bytes: usize,
+}
+
 /// How a run ended.
 #[derive(Debug, Clone)]
 pub struct RunReport {
@@ -59,6 +82,12 @@ pub struct RunReport {
     pub wall_seconds: f64,
     pub particle_steps: f64,
     pub failure: Option<String>,
+    /// The signal that stopped the run after its checkpoint, if one did.
+    pub interrupted: Option<i32>,
+    /// Checkpoints written, their total write time (s) and the bytes of state of the last.
+    pub checkpoints: u32,
+    pub checkpoint_seconds: f64,
+    pub checkpoint_bytes: usize,
 }
 
 impl Simulation {
@@ -108,19 +137,60 @@ impl Simulation {
             };
             world.insert_resource(log);
         }
+        Ok(Self::assemble(scene, world, estimate, false))
+    }
+
+    /// The simulation of `world` with its schedules; `started` skips the start-up (a
+    /// resumed run).
+    fn assemble(
+        scene: Scene,
+        mut world: World,
+        estimate: Option<StepEstimate>,
+        started: bool,
+    ) -> Self {
         if corrector_may_predict_ahead(&world) {
             world.insert_resource(PredictAhead::default());
         }
         let coupled_step = CoupledStep::new(&world, OUTPUT_ENTRIES);
         let startup_schedule = build_startup(&world);
-        Ok(Self {
+        Self {
             scene,
             world,
             coupled_step,
             startup_schedule,
             estimate,
-            started: false,
-        })
+            started,
+        }
+    }
+
+    /// The run of `dir` at its checkpoint: the world built from the saved scene, the
+    /// saved state put in, the particle writer appending to `dir/particles.h5` after the
+    /// frames written before the checkpoint.
+    pub fn resume(dir: &Path, checkpoint: &Checkpoint) -> Result<Self, SceneError> {
+        let saved = &checkpoint.scene;
+        let bad = |message: String| SceneError {
+            file: dir.join(CHECKPOINT_FILE),
+            field: String::new(),
+            message,
+        };
+        let scene = crate::scene::parse(&saved.text, &saved.path, &saved.overrides)?;
+        let mut world = crate::build::world_from_scene(&scene, &saved.path)?;
+        let out = ParticleOutput::reopen(dir, scene.simulation.output_interval).map_err(bad)?;
+        world.insert_resource(out);
+        let mut sim = Self::assemble(scene, world, None, true);
+        checkpoint.restore(&mut sim.world).map_err(bad)?;
+        let estimate = stability::estimate(
+            &sim.scene,
+            sim.world.resource::<Particles>(),
+            &sim.world.resource::<Materials>().list,
+        );
+        sim.estimate = estimate;
+        Ok(sim)
+    }
+
+    /// Whether the run can be checkpointed: a DEM scene (the flow's state is not saved).
+    pub fn can_checkpoint(&self) -> bool {
+        !self.world.contains_resource::<FluidFlow>()
     }
 
     /// Forces at t = 0 and integrator start values; writes the first frame.
@@ -186,6 +256,14 @@ impl Simulation {
     /// Run `steps` steps (stopping early on failure), showing progress on a terminal
     /// and plain log lines otherwise.
     pub fn run(&mut self, steps: u64) -> RunReport {
+        self.run_with(steps, &mut RunControl::default())
+    }
+
+    /// [`Simulation::run`] with checkpoints and an interruption flag (`control`): a step
+    /// that ends at a checkpoint time, or follows a wall-clock interval or a signal, runs
+    /// without predicting ahead and is followed by a checkpoint; after a signal the run
+    /// then stops.
+    pub fn run_with(&mut self, steps: u64, control: &mut RunControl) -> RunReport {
         let t0 = Instant::now();
         // The pool's other threads spin between the passes of the steps instead of
         // sleeping (systems/src/team.rs).
@@ -207,17 +285,66 @@ impl Simulation {
         // A state the start-up already found unphysical (particles placed overlapping)
         // fails at step 0, before any step.
         let mut failure = self.failure();
+        let checkpoints = control.dir.is_some() && self.can_checkpoint();
+        let dt = self.world.resource::<SimClock>().dt;
+        // The next checkpoint time: the first multiple of the interval after now.
+        let next_after = |t: f64, every: f64| ((t + 0.5 * dt) / every).floor() * every + every;
+        let mut next_checkpoint = control
+            .every_time
+            .map(|every| next_after(self.world.resource::<SimClock>().time, every));
+        let mut last_checkpoint = Instant::now();
+        let mut pending = false;
+        let mut signal = 0;
         for k in 0..steps {
             if failure.is_some() {
                 break;
             }
             awake.rearm();
             particle_steps += self.world.resource::<Particles>().len() as f64;
-            // The last step leaves the corrected state (for the summary and the last frame).
-            self.step_predicting_ahead(k + 1 < steps);
+            let end = (self.world.resource::<SimClock>().step + 1) as f64 * dt;
+            let by_time = next_checkpoint.is_some_and(|t| end + 0.5 * dt >= t);
+            let checkpoint = checkpoints && (by_time || pending);
+            // The last step, and a step before a checkpoint, leave the corrected state.
+            self.step_predicting_ahead(k + 1 < steps && !checkpoint);
             if let Some(f) = self.failure() {
                 failure = Some(f);
                 break;
+            }
+            if checkpoint {
+                if let Err(e) = self.checkpoint(control) {
+                    failure = Some(e);
+                    break;
+                }
+                pending = false;
+                last_checkpoint = Instant::now();
+                if let (true, Some(every)) = (by_time, control.every_time) {
+                    next_checkpoint = Some(next_after(end, every));
+                }
+            }
+            if signal != 0 && (checkpoint || !checkpoints) {
+                control.interrupted = Some(signal);
+                break;
+            }
+            if control
+                .every_wall
+                .is_some_and(|w| last_checkpoint.elapsed().as_secs_f64() >= w)
+            {
+                pending = true;
+            }
+            if let Some(s) = control
+                .interrupt
+                .map(|f| f.load(Ordering::SeqCst))
+                .filter(|&s| s != 0)
+            {
+                if signal == 0 {
+                    tracing::info!("signal {s}: stopping after the next step's checkpoint");
+                }
+                signal = s;
+                pending = true;
+                if !checkpoints || k + 1 == steps {
+                    control.interrupted = Some(s);
+                    break;
+                }
             }
             // The bar moves every second; a plain log line every ten seconds. The
             // message is made only when shown.
@@ -246,6 +373,17 @@ impl Simulation {
         if let Some(bar) = bar {
             bar.finish();
         }
+        // A checkpoint of the end, from which the run can be extended (before the frame of
+        // the last state, which a longer run would not write).
+        if failure.is_none()
+            && control.interrupted.is_none()
+            && checkpoints
+            && control.every_time.or(control.every_wall).is_some()
+        {
+            if let Err(e) = self.checkpoint(control) {
+                failure = Some(e);
+            }
+        }
         // Last state (unless unhealthy: output stops at the last good frame).
         if failure.is_none() {
             let clock = *self.world.resource::<SimClock>();
@@ -265,7 +403,24 @@ impl Simulation {
             wall_seconds: t0.elapsed().as_secs_f64(),
             particle_steps,
             failure,
+            interrupted: control.interrupted,
+            checkpoints: control.checkpoints,
+            checkpoint_seconds: control.checkpoint_seconds,
+            checkpoint_bytes: control.checkpoint_bytes,
         }
+    }
+
+    /// Write a checkpoint into the control's directory, timed in the control.
+    fn checkpoint(&mut self, control: &mut RunControl) -> Result<(), String> {
+        let (Some(dir), Some(scene)) = (&control.dir, &control.scene) else {
+            return Ok(());
+        };
+        let t = Instant::now();
+        let bytes = write_checkpoint(&mut self.world, scene, dir)?;
+        control.checkpoint_seconds += t.elapsed().as_secs_f64();
+        control.checkpoints += 1;
+        control.checkpoint_bytes = bytes;
+        Ok(())
     }
 
     /// Particle-steps from now to simulated time `end`, with `n_now` particles present and
@@ -418,7 +573,16 @@ impl Simulation {
         let rate = report.particle_steps / report.wall_seconds.max(1e-12);
         let peak = peak_memory_bytes();
         serde_json::json!({
-            "status": if report.failure.is_some() { "failed" } else { "completed" },
+            "status": match (&report.failure, report.interrupted) {
+                (Some(_), _) => "failed",
+                (None, Some(_)) => "interrupted",
+                (None, None) => "completed",
+            },
+            "checkpoints": {
+                "written": report.checkpoints,
+                "write_seconds": report.checkpoint_seconds,
+                "state_bytes": report.checkpoint_bytes,
+            },
             "failure": report.failure,
             "steps": report.steps,
             "total_steps": clock.step,
