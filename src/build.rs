@@ -550,6 +550,22 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             next_id: particles.len() as u32,
         });
     }
+    if integrator.is_some() && !scene.sinks.is_empty() {
+        let list = scene
+            .sinks
+            .iter()
+            .enumerate()
+            .map(|(k, sink)| {
+                let len = sink.normal.iter().map(|x| x * x).sum::<f64>().sqrt();
+                Sink {
+                    name: sink.name.clone().unwrap_or_else(|| format!("sink {k}")),
+                    point: sink.point,
+                    normal: sink.normal.map(|x| x / len),
+                }
+            })
+            .collect();
+        world.insert_resource(Sinks::new(list));
+    }
     if integrator.is_some() {
         // The balance holds where only contacts and the body acceleration act: no flow
         // doing work, no particles moved on a path, no adhesion (its surface energy is

@@ -22,7 +22,7 @@ use grainflow_components::*;
 use crate::output::ParticleOutput;
 
 /// Format of the state blobs; a checkpoint of another version is refused.
-pub const CHECKPOINT_VERSION: u32 = 1;
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 /// The checkpoint file of a run directory.
 pub const CHECKPOINT_FILE: &str = "checkpoint.h5";
@@ -308,12 +308,26 @@ fields_state!(EnergyBalance {
     elastic,
     initial,
     inserted,
+    removed,
     counted_ids,
     scale,
     largest_growth,
     largest_growth_step,
     checked_step,
     checks,
+});
+
+fields_state!(SinkEvent {
+    time,
+    sink,
+    count,
+    mass
+});
+fields_state!(Sinks {
+    leaving,
+    removed,
+    removed_mass,
+    events
 });
 
 /// Of the walls only whether each is still there changes.
@@ -434,7 +448,7 @@ fn apply<T: Resource<Mutability = bevy_ecs::component::Mutable> + State>(
 }
 
 /// Every saved resource type, in a fixed order.
-fn resources() -> [ResourceFn; 18] {
+fn resources() -> [ResourceFn; 19] {
     [
         apply::<SimClock>,
         apply::<Particles>,
@@ -453,6 +467,7 @@ fn resources() -> [ResourceFn; 18] {
         apply::<EnergyBalance>,
         apply::<Walls>,
         apply::<Inflows>,
+        apply::<Sinks>,
         apply::<ParticleOutput>,
     ]
 }

@@ -43,7 +43,7 @@ pub struct RunArgs {
     pub scene: PathBuf,
     /// Output directory (default `out/SCENE`, SCENE the scene file name without extension).
     /// The files of an earlier run in it (particles.h5, particles.xdmf, fluid.h5,
-    /// fluid.xdmf, coupling.csv, summary.json) are removed first; other files are kept.
+    /// fluid.xdmf, coupling.csv, sinks.csv, summary.json) are removed first; other files are kept.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Run until this simulated time, s (default: the scene's end_time).
@@ -694,6 +694,12 @@ fn execute(
         ) {
             eprintln!("error: cannot write {}: {e}", summary_path.display());
             return ExitCode::from(1);
+        }
+        if let Some(sinks) = sim.world.get_resource::<grainflow_components::Sinks>() {
+            if let Err(e) = crate::sinks::write_csv(sinks, out_dir) {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
         }
         let mut out = String::new();
         let rate = report.particle_steps / report.wall_seconds.max(1e-12);

@@ -12,4 +12,5 @@ pub mod output;
 pub mod plot;
 pub mod run;
 pub mod scene;
+pub mod sinks;
 pub mod stability;

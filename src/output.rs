@@ -33,12 +33,13 @@ pub struct ParticleOutput {
 
 /// The files `grainflow run` writes into its output directory; a run removes those of an
 /// earlier run first, and no other file.
-pub const RUN_FILES: [&str; 6] = [
+pub const RUN_FILES: [&str; 7] = [
     "particles.h5",
     "particles.xdmf",
     "fluid.h5",
     "fluid.xdmf",
     "coupling.csv",
+    "sinks.csv",
     "summary.json",
 ];
 

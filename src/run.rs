@@ -548,6 +548,7 @@ impl Simulation {
         serde_json::json!({
             "initial": e.initial,
             "inserted": e.inserted,
+            "removed": e.removed,
             "total": e.total(),
             "kinetic": e.kinetic,
             "rotational": e.rotational,
@@ -616,6 +617,7 @@ impl Simulation {
             },
             "schedule": self.coupled_step.systems.iter().map(|(s, n)| format!("{s:?}/{n}")).collect::<Vec<_>>(),
             "energy": self.energy_summary(),
+            "sinks": self.world.get_resource::<grainflow_components::Sinks>().map(crate::sinks::summary),
             "fluid": self.fluid_summary(),
             "observables": observables(&self.world, &self.scene),
         })

@@ -59,6 +59,9 @@ pub struct Scene {
     pub lammps: Vec<LammpsSpec>,
     #[serde(default)]
     pub inflows: Vec<InflowSpec>,
+    /// Planes through which particles leave the scene (removed, counted per sink).
+    #[serde(default)]
+    pub sinks: Vec<SinkSpec>,
     /// Contact-law values of a material pair, overriding those mixed from both materials.
     #[serde(default)]
     pub interactions: Vec<InteractionSpec>,
@@ -618,6 +621,17 @@ pub enum RegionSpec {
         bottom: f64,
         top: f64,
     },
+}
+
+/// A particle sink: every particle whose centre is on the far side of the plane through
+/// `point` from `normal` (which points into the kept space) is removed.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SinkSpec {
+    #[serde(default)]
+    pub name: Option<String>,
+    pub point: [f64; 3],
+    pub normal: [f64; 3],
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -1285,6 +1299,14 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
     }
     for (k, l) in s.lammps.iter().enumerate() {
         known_material(s, format!("lammps[{k}].material"), &l.material)?;
+    }
+    for (k, sink) in s.sinks.iter().enumerate() {
+        let f = |name: &str| format!("sinks[{k}].{name}");
+        finite3(f("point"), sink.point)?;
+        finite3(f("normal"), sink.normal)?;
+        if sink.normal.iter().map(|x| x * x).sum::<f64>() == 0.0 {
+            return Err((f("normal"), "expected a non-zero vector".into()));
+        }
     }
     for (k, i) in s.inflows.iter().enumerate() {
         let f = |name: &str| format!("inflows[{k}].{name}");

@@ -4,7 +4,8 @@
 //! (`summary.json`'s physical fields), on 1 and 2 threads; for a dry hopper filling
 //! from an inflow (stopped mid-inflow), the same with friction (contacts and wall contacts
 //! carrying tangential springs), and an adhesive chain with friction and rolling
-//! resistance hanging from a fixed sphere. SIGTERM and SIGINT stop a run at a
+//! resistance hanging from a fixed sphere, and a frictional hopper discharging through
+//! a sink (particles removed before and after the checkpoint). SIGTERM and SIGINT stop a run at a
 //! checkpoint (exit 143 / 130, status "interrupted"); a run killed outright resumes from
 //! its last complete checkpoint; bad input to `resume` and `--checkpoint-every` exits 2.
 mod common;
@@ -96,7 +97,22 @@ fn a_resumed_run_writes_what_the_uninterrupted_run_writes() {
     let root = env!("CARGO_MANIFEST_DIR");
     let hopper = format!("{root}/cases/hopper-fill-small.toml");
     let chain = format!("{root}/cases/pendulum-rolling.toml");
-    let cases: [Case; 3] = [
+    let discharge = format!("{root}/cases/hopper-discharge-small.toml");
+    let cases: [Case; 4] = [
+        // Particles leaving through a sink before and after the checkpoint, with friction.
+        (
+            "hopper discharge",
+            &discharge,
+            &[
+                "blocks.0.count=300",
+                "walls.2.remove_at=0.02",
+                "sinks.0.point.2=-0.05",
+                "simulation.output_interval=0.02",
+            ],
+            "0.1337",
+            "0.0437",
+            "0.2",
+        ),
         // Mid-inflow (batches every 0.01 s), a checkpoint between batches.
         ("hopper", &hopper, &[], "0.0437", "0.0219", "0.06"),
         (

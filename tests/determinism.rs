@@ -245,6 +245,41 @@ fn contact_laws_with_history_do_not_change_a_bit() {
     assert_identical(&one, &two, "contact laws, --threads 1 against --threads 2");
 }
 
+/// Particles removed through a sink (`systems/src/sinks.rs`): the rows dropped at the
+/// rebuild, the re-sort and the other blocks' row map must not depend on the thread
+/// count. The sink cuts through the lower block at t = 0 (removing rows from both
+/// chunks) and takes falling spheres of the upper block later.
+#[test]
+fn particles_removed_through_a_sink_do_not_change_a_bit() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let text = format!("{SCENE}\n[[sinks]]\npoint = [0.0, 0.0, 0.006]\nnormal = [0.0, 0.0, 1.0]\n");
+    let scene = write_scene(dir.path(), "determinism-sink.toml", &text);
+    let one = run(&scene, &dir.path().join("t1"), 1);
+    let two = run(&scene, &dir.path().join("t2"), 2);
+    let removed = one.summary["sinks"][0]["removed"]
+        .as_u64()
+        .expect("removed");
+    let left = one.summary["particles"].as_u64().expect("particles");
+    // The frame at t = 0 holds every placed particle.
+    let placed = one
+        .h5
+        .iter()
+        .find(|(k, _)| k.ends_with("/id"))
+        .expect("a frame")
+        .1
+        .len();
+    assert!(
+        removed > 100 && left as usize > grainflow_systems::CHUNK,
+        "{removed} removed, {left} left"
+    );
+    assert_eq!(removed + left, placed as u64, "particles lost or made");
+    assert_eq!(
+        one.summary["sinks"], two.summary["sinks"],
+        "sink counts differ"
+    );
+    assert_identical(&one, &two, "sink, --threads 1 against --threads 2");
+}
+
 /// The corrector that also predicts the next step in its own pass (`PredictAhead`,
 /// granted by the run loop for every step but the last and those whose end is written)
 /// does the predictor's arithmetic in the predictor's order: a run through the run loop

@@ -76,7 +76,23 @@ fn rejected(dir: &Path, scene: &Path, extra: &[&str], field: &str) -> String {
 fn bad_scenes_exit_2_naming_file_and_field() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
-    let cases: [(&str, String, &str); 7] = [
+    let sink = |body: &str| format!("{GOOD}\n[[sinks]]\n{body}\n");
+    let cases: [(&str, String, &str); 10] = [
+        (
+            "sink_zero_normal.toml",
+            sink("point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 0.0]"),
+            "sinks[0].normal",
+        ),
+        (
+            "sink_nan_point.toml",
+            sink("point = [0.0, nan, -1.0]\nnormal = [0.0, 0.0, 1.0]"),
+            "sinks[0].point",
+        ),
+        (
+            "sink_unknown_field.toml",
+            sink("point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0"),
+            "sinks[0].radius",
+        ),
         (
             "unknown_field.toml",
             edited("dt = 2.0e-6", "dtt = 2.0e-6"),

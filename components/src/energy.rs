@@ -24,6 +24,9 @@ pub struct EnergyBalance {
     /// Kinetic plus potential energy of the inserted particles, each at the first check
     /// that saw it.
     pub inserted: f64,
+    /// Kinetic (translation and rotation) plus potential energy of the particles removed
+    /// through sinks, each at the check that found it past its sink.
+    pub removed: f64,
     /// Particle ids below this one are in `initial` or `inserted`.
     pub counted_ids: u32,
     /// The energy the growth is measured against: the largest kinetic energy (translation
@@ -44,9 +47,14 @@ impl EnergyBalance {
     pub fn total(&self) -> f64 {
         self.kinetic + self.rotational + self.potential + self.elastic
     }
+    /// The energy the particles present should hold without dissipation:
+    /// `initial + inserted - removed`.
+    pub fn supplied(&self) -> f64 {
+        self.initial + self.inserted - self.removed
+    }
     /// What damping and friction dissipated (with the energy of the tangential and
-    /// rolling springs, not counted): `initial + inserted - total`.
+    /// rolling springs, not counted): `supplied - total`.
     pub fn dissipated(&self) -> f64 {
-        self.initial + self.inserted - self.total()
+        self.supplied() - self.total()
     }
 }

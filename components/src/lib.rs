@@ -18,6 +18,7 @@ pub mod material;
 pub mod neighbour;
 pub mod particles;
 pub mod rotation;
+pub mod sinks;
 pub mod walls;
 
 pub use clock::SimClock;
@@ -41,6 +42,7 @@ pub use neighbour::{
 };
 pub use particles::{NewParticle, Particles, PerParticle};
 pub use rotation::{Clamped, Rotation};
+pub use sinks::{Sink, SinkEvent, Sinks};
 pub use walls::{Wall, WallShape, Walls};
 
 /// Three coordinate columns of one per-particle vector quantity (x, y, z).

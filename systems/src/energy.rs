@@ -204,7 +204,7 @@ pub fn energy_monitor(
         .max(e.lift)
         .max(e.elastic);
     let growth = if balance.scale > 0.0 {
-        (balance.total() - balance.initial - balance.inserted) / balance.scale
+        (balance.total() - balance.supplied()) / balance.scale
     } else {
         0.0
     };
@@ -220,7 +220,7 @@ pub fn energy_monitor(
              fastest particle {id} at {speed:.3e} m/s; the time step is too large for the contact stiffness",
             clock.step,
             clock.time,
-            balance.initial + balance.inserted,
+            balance.supplied(),
             balance.total(),
             100.0 * growth,
             balance.scale,

@@ -26,6 +26,7 @@ pub mod rolling;
 pub mod rotation;
 pub mod rows;
 pub mod schedule;
+pub mod sinks;
 pub mod team;
 pub mod verlet;
 pub mod walls;

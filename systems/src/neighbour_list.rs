@@ -10,7 +10,7 @@
 use bevy_ecs::prelude::*;
 use grainflow_components::{
     ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder, ScatterPlan,
-    StepMotion, VerletList,
+    Sinks, StepMotion, VerletList,
 };
 use rayon::prelude::*;
 
@@ -26,6 +26,7 @@ pub fn verlet_list(
     mut reorder: ResMut<Reorder>,
     history: Option<ResMut<ContactHistory>>,
     mut motion: ResMut<StepMotion>,
+    sinks: Option<ResMut<Sinks>>,
 ) {
     let _span = tracing::info_span!("verlet_list").entered();
     reorder.perm = None;
@@ -46,7 +47,14 @@ pub fn verlet_list(
         list.motion_bound = exact;
     }
     if stale {
-        rebuild(&mut particles, &mut list, &settings, &mut reorder);
+        let leaving = sinks.map(|mut s| std::mem::take(&mut s.leaving));
+        rebuild(
+            &mut particles,
+            &mut list,
+            &settings,
+            &mut reorder,
+            leaving.as_deref().unwrap_or(&[]),
+        );
     }
     let inner = narrowing_due(&mut list, settings.skin, step_motion, stale);
     match (history, inner) {
@@ -175,15 +183,22 @@ fn index_near_pairs(list: &mut VerletList) {
 }
 
 /// Rebuild the list from the cell index, re-sorting the particles in cell order at every
-/// `sort_every`-th rebuild.
+/// `sort_every`-th rebuild. The rows in `leaving` (ascending; particles past a sink) are
+/// dropped first; the published row map then takes the other blocks from the old rows to
+/// the kept, possibly re-sorted, ones.
 fn rebuild(
     particles: &mut Particles,
     list: &mut VerletList,
     settings: &NeighbourSettings,
     reorder: &mut Reorder,
+    leaving: &[u32],
 ) {
-    let n = particles.len();
     let _span = tracing::info_span!("verlet_rebuild").entered();
+    let keep = (!leaving.is_empty()).then(|| kept_rows(particles.len(), leaving));
+    if let Some(keep) = &keep {
+        particles.permute_rows(keep);
+    }
+    let n = particles.len();
     let sort = settings.sort_every > 0 && list.builds.is_multiple_of(settings.sort_every as u64);
     let cell_sort = tracing::info_span!("cell_sort").entered();
     let grid = CellGrid::new(particles, settings.skin);
@@ -192,10 +207,14 @@ fn rebuild(
     let members = if sort && n > 0 {
         particles.permute_rows(&order.members);
         cell_of = order.members.iter().map(|&k| cell_of[k as usize]).collect();
-        reorder.perm = Some(order.members);
+        reorder.perm = Some(match &keep {
+            Some(keep) => order.members.iter().map(|&k| keep[k as usize]).collect(),
+            None => order.members,
+        });
         list.sorts += 1;
         None
     } else {
+        reorder.perm = keep;
         Some(order.members)
     };
     drop(cell_sort);
@@ -217,6 +236,20 @@ fn rebuild(
     list.stale = false;
     list.builds += 1;
     list.motion_bound = 0.0;
+}
+
+/// The rows of `0..n` not in `leaving` (ascending), in order.
+fn kept_rows(n: usize, leaving: &[u32]) -> Vec<u32> {
+    let mut out = Vec::with_capacity(n - leaving.len());
+    let mut next = leaving.iter().copied().peekable();
+    for i in 0..n as u32 {
+        if next.peek() == Some(&i) {
+            next.next();
+        } else {
+            out.push(i);
+        }
+    }
+    out
 }
 
 /// Largest squared displacement of any particle since the last rebuild.

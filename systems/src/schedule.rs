@@ -19,7 +19,8 @@
 //! sets (the seed's "efficient computation" slide: neighbour list, contact,
 //! hydrodynamics, Gear predictor-corrector):
 //!
-//! 1. `Events`: walls removed at their time, particles inserted by inflows
+//! 1. `Events`: walls removed at their time, particles past a sink queued for removal
+//!    (`sink_removal`; the neighbour list drops their rows), particles inserted by inflows
 //! 2. `SyncRows`: per-particle blocks grown to the particle count
 //! 3. `Predict`: integrator predictor (Gear: Taylor step of x and v); it skips the rows
 //!    that the last corrector predicted already (below)
@@ -62,7 +63,7 @@ use crate::granular::has_contact_laws;
 use crate::rotation::has_rotation;
 use crate::{
     clamp, coupling, energy, fluid, gear, granular, hertz, inflow, monitor, neighbour_list,
-    rotation, rows, verlet, walls,
+    rotation, rows, sinks, verlet, walls,
 };
 use grainflow_components::{Clamped, Coupling, HydroForces, Rotation};
 
@@ -177,6 +178,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: has_removable_walls,
         add: |s, set| {
             s.add_systems(walls::wall_removal.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "sink_removal",
+        set: StepSet::Events,
+        phase: Phase::Step,
+        wanted: sinks::has_sinks,
+        add: |s, set| {
+            s.add_systems(sinks::sink_removal.in_set(set));
         },
     },
     SystemEntry {
