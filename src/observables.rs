@@ -1,4 +1,6 @@
-//! The observables of coupled runs (`summary.json` → `observables`): the history of the
+//! The observables of a run (`summary.json` → `observables`): with sinks, the discharge
+//! rate through all of them together (`discharge_rate`, `discharge_rate_spread`,
+//! `src/sinks.rs`); for coupled runs, the history of the
 //! particles over the fluid steps, and from it and the final flow
 //! * drag case (a fixed sphere in a flow with an inflow): `drag_coefficient`
 //!   `C_D = F . e / (1/2 rho_f U^2 pi r^2)` with the inflow velocity `U = U e`,
@@ -24,7 +26,7 @@
 //!   `clusters_max` (groups of spheres with gaps below a tenth of the radius).
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    BoundaryRule, Clamped, Coupling, HydroForces, Particles, RunHealth, SimClock,
+    BoundaryRule, Clamped, Coupling, HydroForces, Particles, RunHealth, SimClock, Sinks,
 };
 use grainflow_fluid::sample::velocity_at;
 use grainflow_systems::coupling::surface_points::surface_point_force;
@@ -183,13 +185,23 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// The observables of a coupled run (an empty object otherwise).
+/// The observables of a run: those of its sinks, if any, and of its coupling, if coupled.
 pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
+    let mut out = world
+        .get_resource::<Sinks>()
+        .map(crate::sinks::observables)
+        .unwrap_or_default();
+    out.extend(coupled_observables(world, scene));
+    serde_json::Value::Object(out)
+}
+
+/// The observables of a coupled run (none otherwise).
+fn coupled_observables(world: &World, scene: &Scene) -> serde_json::Map<String, serde_json::Value> {
     let (Some(log), Some(flow)) = (
         world.get_resource::<CouplingLog>(),
         world.get_resource::<FluidFlow>(),
     ) else {
-        return json!({});
+        return serde_json::Map::new();
     };
     let particles = world.resource::<Particles>();
     let mut out = serde_json::Map::new();
@@ -200,7 +212,7 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
         }
     }
     let Some(last) = log.state.last() else {
-        return serde_json::Value::Object(out);
+        return out;
     };
     let fluid = scene.fluid.as_ref().expect("coupled scene has a fluid");
     let nu = fluid.viscosity.expect("validated");
@@ -325,7 +337,7 @@ pub fn observables(world: &World, scene: &Scene) -> serde_json::Value {
         out.insert("smallest_gap".into(), json!(events.smallest_gap));
         out.insert("tumble_time".into(), json!(events.tumble_time));
     }
-    serde_json::Value::Object(out)
+    out
 }
 
 /// The cloud observables (module documentation) of the records `states` for gravity

@@ -154,6 +154,18 @@ pub struct ParticlesArgs {
     /// Length unit of the scene, for the axis labels (e.g. cm for the seed's cases).
     #[arg(long, default_value = "m")]
     pub length_unit: String,
+    /// Draw only the spheres whose centres lie in a slab of this thickness across the view
+    /// axis (a slice through the scene instead of a projection of all spheres).
+    #[arg(long, value_name = "THICKNESS", allow_negative_numbers = true)]
+    pub slice: Option<f64>,
+    /// Centre of the `--slice` slab on the view axis.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        requires = "slice"
+    )]
+    pub slice_at: f64,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -520,6 +532,19 @@ pub struct ParticleFrame {
     pub position: Vec<[f64; 3]>,
     pub velocity: Vec<[f64; 3]>,
     pub radius: Vec<f64>,
+}
+
+impl ParticleFrame {
+    /// Keep the particles whose position satisfies `keep`, in their order.
+    pub fn retain(&mut self, keep: impl Fn(&[f64; 3]) -> bool) {
+        let rows: Vec<usize> = (0..self.id.len())
+            .filter(|&i| keep(&self.position[i]))
+            .collect();
+        self.id = rows.iter().map(|&i| self.id[i]).collect();
+        self.velocity = rows.iter().map(|&i| self.velocity[i]).collect();
+        self.radius = rows.iter().map(|&i| self.radius[i]).collect();
+        self.position = rows.iter().map(|&i| self.position[i]).collect();
+    }
 }
 
 /// The history of one particle: the frames in which it exists.
@@ -1477,21 +1502,35 @@ fn particles(a: &ParticlesArgs) -> Result<PathBuf, PlotError> {
     let run = ParticleRun::open(&a.run_dir)?;
     let file = run.dir.join("particles.h5");
     let chosen = particle_frames(a, &run.frames, &file)?;
-    let frames = chosen
-        .iter()
-        .map(|&f| run.read(f))
-        .collect::<Result<Vec<_>, _>>()?;
-    if frames.iter().all(|f| f.id.is_empty()) {
-        return input(format!(
-            "RUN_DIR {}: particles.h5 holds no particles in the chosen frames",
-            a.run_dir.display()
-        ));
-    }
     let axis = match a.view {
         View::X => 0,
         View::Y => 1,
         View::Z => 2,
     };
+    if let Some(w) = a.slice {
+        if !(w.is_finite() && w > 0.0 && a.slice_at.is_finite()) {
+            return input(format!(
+                "--slice {w} --slice-at {}: expected a finite thickness > 0 and a finite centre",
+                a.slice_at
+            ));
+        }
+    }
+    let mut frames = chosen
+        .iter()
+        .map(|&f| run.read(f))
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(w) = a.slice {
+        for f in &mut frames {
+            f.retain(|p| (p[axis] - a.slice_at).abs() <= 0.5 * w);
+        }
+    }
+    if frames.iter().all(|f| f.id.is_empty()) {
+        return input(format!(
+            "RUN_DIR {}: particles.h5 holds no particles in the chosen frames{}",
+            a.run_dir.display(),
+            if a.slice.is_some() { " and slice" } else { "" }
+        ));
+    }
     let axes = plane_axes(axis);
     // The figure's box: the fluid domain, or the spheres' extent over the chosen frames.
     let (lower, upper) = if a.run_dir.join("fluid.h5").is_file() {
@@ -1601,8 +1640,16 @@ fn particles(a: &ParticlesArgs) -> Result<PathBuf, PlotError> {
         SphereColour::Id => "id",
         SphereColour::Z => "height z",
     };
+    let which = match a.slice {
+        Some(w) => format!(
+            "spheres with {view} in {} +- {} {unit}",
+            fmt_g(a.slice_at),
+            fmt_g(0.5 * w)
+        ),
+        None => "spheres".to_string(),
+    };
     let title = format!(
-        "spheres seen along {view} ({} to the right, {} up), coloured by {what}",
+        "{which} seen along {view} ({} to the right, {} up), coloured by {what}",
         AXES[axes[0]], AXES[axes[1]]
     );
     let view_box = ViewBox {

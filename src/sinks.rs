@@ -56,6 +56,36 @@ fn histories(sinks: &Sinks) -> Vec<(Vec<f64>, Vec<f64>)> {
     out
 }
 
+/// The (time, removed mass so far) of every check that removed some, all sinks together.
+fn combined_history(sinks: &Sinks) -> (Vec<f64>, Vec<f64>) {
+    let (mut t, mut m) = (Vec::<f64>::new(), Vec::<f64>::new());
+    for e in &sinks.events {
+        let before = m.last().copied().unwrap_or(0.0);
+        if t.last() == Some(&e.time) {
+            *m.last_mut().expect("one per time") += e.mass;
+        } else {
+            t.push(e.time);
+            m.push(before + e.mass);
+        }
+    }
+    (t, m)
+}
+
+/// `summary.json` → `observables`: the discharge rate (kg/s) through all sinks together
+/// and its spread, as [`discharge_rate`]; empty if no sink has a steady window yet.
+pub fn observables(sinks: &Sinks) -> serde_json::Map<String, serde_json::Value> {
+    let (t, m) = combined_history(sinks);
+    let mut out = serde_json::Map::new();
+    if let Some((rate, _, _, spread)) = discharge_rate(&t, &m) {
+        out.insert("discharge_rate".into(), json!(rate));
+        out.insert(
+            "discharge_rate_spread".into(),
+            json!(Some(spread).filter(|x| x.is_finite())),
+        );
+    }
+    out
+}
+
 /// `summary.json` → `sinks`.
 pub fn summary(sinks: &Sinks) -> serde_json::Value {
     let histories = histories(sinks);

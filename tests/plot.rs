@@ -551,6 +551,54 @@ fn particles_axes_span_the_fluid_box_at_equal_scale() {
     assert_colour(&img, view.pixel(0.25, 1.9), BACKGROUND, "top of the box");
 }
 
+/// `--slice`: only the spheres centred in the slab are drawn, the box stays the fluid's.
+#[test]
+fn particles_slice_keeps_the_spheres_in_the_slab() {
+    let r = runs();
+    let out = r.four_in_box.join("slice.png");
+    // Seen along y: the slab y in 0.4 +- 0.05 holds sphere 3 alone (y = 0.4); spheres 0
+    // and 1 (y = 0.25) and sphere 2 (y = 0.1, in front of 3) are left out.
+    let (stdout, _) = particles_plot(
+        s(&r.four_in_box),
+        &[
+            "--time",
+            "0",
+            "--slice",
+            "0.1",
+            "--slice-at",
+            "0.4",
+            "--out",
+            s(&out),
+        ],
+    );
+    assert!(stdout.contains("(step 0), 1 spheres"), "{stdout}");
+    let img = decode(&out);
+    let view = Frame {
+        area: plot_area(&stdout),
+        lower: [0.0, 0.0],
+        upper: [0.5, 2.0],
+    };
+    // Sphere 3 at rest alone: the colour scale is centred on its speed.
+    assert_colour(
+        &img,
+        view.pixel(0.3, 1.5),
+        VIRIDIS_HALF,
+        "sphere 3, no longer behind 2",
+    );
+    assert_colour(&img, view.pixel(0.1, 0.1), BACKGROUND, "sphere 0 left out");
+    assert_colour(&img, view.pixel(0.4, 0.1), BACKGROUND, "sphere 1 left out");
+    // A slab holding no sphere, and a thickness that is not one, are bad input.
+    let (four, out) = (s(&r.four_in_box), s(&out));
+    let base = ["plot", "particles", four, "--time", "0", "--out", out];
+    let with = |extra: &[&'static str]| [&base[..], extra].concat();
+    assert_bad(
+        &with(&["--slice", "0.01", "--slice-at", "0.33"]),
+        &["slice"],
+    );
+    assert_bad(&with(&["--slice", "0"]), &["--slice 0", "thickness"]);
+    assert_bad(&with(&["--slice", "-1"]), &["--slice", "thickness"]);
+}
+
 #[test]
 fn particles_series_has_one_panel_per_frame() {
     let r = runs();

@@ -110,6 +110,12 @@ fn a_bin_discharges_at_the_beverloo_rate_and_every_particle_is_counted() {
     let w = sink["discharge_rate"].as_f64().unwrap();
     let spread = sink["discharge_rate_spread"].as_f64().unwrap();
     eprintln!("discharge rate {w:.4} kg/s (spread {spread:.3}), Beverloo {w_b:.4} kg/s");
+    // One sink: the run's discharge rate over all sinks is this sink's.
+    assert_eq!(s["observables"]["discharge_rate"].as_f64(), Some(w));
+    assert_eq!(
+        s["observables"]["discharge_rate_spread"].as_f64(),
+        Some(spread)
+    );
     assert!(
         (w / w_b - 1.0).abs() < 0.25,
         "rate {w} kg/s, Beverloo {w_b} kg/s"
