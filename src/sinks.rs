@@ -44,22 +44,15 @@ pub fn discharge_rate(time: &[f64], removed_mass: &[f64]) -> Option<(f64, f64, f
     Some((rate, t[0], t[t.len() - 1], spread))
 }
 
-/// Per sink, the (time, removed mass so far) of every check that removed some.
-fn histories(sinks: &Sinks) -> Vec<(Vec<f64>, Vec<f64>)> {
-    let mut out = vec![(Vec::new(), Vec::new()); sinks.list.len()];
-    for e in &sinks.events {
-        let (t, m) = &mut out[e.sink as usize];
-        let before = m.last().copied().unwrap_or(0.0);
-        t.push(e.time);
-        m.push(before + e.mass);
-    }
-    out
-}
-
-/// The (time, removed mass so far) of every check that removed some, all sinks together.
-fn combined_history(sinks: &Sinks) -> (Vec<f64>, Vec<f64>) {
+/// The (time, removed mass so far) of every check that removed some, through the sink
+/// `only` or through all sinks together.
+fn history(sinks: &Sinks, only: Option<u32>) -> (Vec<f64>, Vec<f64>) {
     let (mut t, mut m) = (Vec::<f64>::new(), Vec::<f64>::new());
-    for e in &sinks.events {
+    for e in sinks
+        .events
+        .iter()
+        .filter(|e| only.is_none_or(|s| e.sink == s))
+    {
         let before = m.last().copied().unwrap_or(0.0);
         if t.last() == Some(&e.time) {
             *m.last_mut().expect("one per time") += e.mass;
@@ -74,7 +67,7 @@ fn combined_history(sinks: &Sinks) -> (Vec<f64>, Vec<f64>) {
 /// `summary.json` → `observables`: the discharge rate (kg/s) through all sinks together
 /// and its spread, as [`discharge_rate`]; empty if no sink has a steady window yet.
 pub fn observables(sinks: &Sinks) -> serde_json::Map<String, serde_json::Value> {
-    let (t, m) = combined_history(sinks);
+    let (t, m) = history(sinks, None);
     let mut out = serde_json::Map::new();
     if let Some((rate, _, _, spread)) = discharge_rate(&t, &m) {
         out.insert("discharge_rate".into(), json!(rate));
@@ -88,14 +81,13 @@ pub fn observables(sinks: &Sinks) -> serde_json::Map<String, serde_json::Value> 
 
 /// `summary.json` → `sinks`.
 pub fn summary(sinks: &Sinks) -> serde_json::Value {
-    let histories = histories(sinks);
     sinks
         .list
         .iter()
         .enumerate()
         .map(|(s, sink)| {
-            let (t, m) = &histories[s];
-            let rate = discharge_rate(t, m);
+            let (t, m) = history(sinks, Some(s as u32));
+            let rate = discharge_rate(&t, &m);
             json!({
                 "name": sink.name,
                 "removed": sinks.removed[s],
