@@ -1,12 +1,14 @@
-//! Checkpoints: the complete mutable state of a DEM run in `checkpoint.h5`, from which
-//! `grainflow resume` continues bitwise as if never stopped.
+//! Checkpoints: the complete mutable state of a run (DEM, flow and coupling) in
+//! `checkpoint.h5`, from which `grainflow resume` continues bitwise as if never stopped.
 //!
 //! Every resource that changes during a run is saved whole, in its current row order
 //! (particles are re-sorted in cell order, and sums depend on that order): particles,
 //! integrator derivatives, rotation, Verlet list with its reference positions and
 //! narrowing state, wall list, contact store and wall-contact history (tangential
 //! springs, rolling displacements, JKR flags), inflow progress and random state, wall
-//! removal flags, the health and energy monitors, the clock and the output timetable.
+//! removal flags, sinks, the health and energy monitors, the flow's time levels with its
+//! prescribed and penalised faces, the coupling's markers, held forces and log, the clock
+//! and the output timetable.
 //! What the scene defines and the run never changes (materials, contact laws, wall
 //! shapes, settings) is rebuilt from the scene text stored beside them. Each resource is
 //! one `u8` dataset (`/state/<Resource>`, its fields in order, little-endian); the
@@ -19,10 +21,15 @@ use std::path::{Path, PathBuf};
 use bevy_ecs::prelude::*;
 use grainflow_components::*;
 
+use grainflow_fluid::{FlowLevels, PenaltyFace};
+use grainflow_systems::fluid::{FluidFlow, FluidStats};
+
+use crate::cloud::CloudState;
+use crate::observables::CouplingLog;
 use crate::output::ParticleOutput;
 
 /// Format of the state blobs; a checkpoint of another version is refused.
-pub const CHECKPOINT_VERSION: u32 = 2;
+pub const CHECKPOINT_VERSION: u32 = 3;
 
 /// The checkpoint file of a run directory.
 pub const CHECKPOINT_FILE: &str = "checkpoint.h5";
@@ -98,7 +105,7 @@ macro_rules! number_state {
         }
     )*};
 }
-number_state!(f64, u64, u32, u16, u8);
+number_state!(f64, u64, u32, u16, u8, i32);
 
 impl State for usize {
     fn save(&self, out: &mut Vec<u8>) {
@@ -172,6 +179,17 @@ impl<T: State + Default> State for Option<T> {
             None
         };
         Ok(())
+    }
+}
+
+impl<A: State, B: State> State for (A, B) {
+    fn save(&self, out: &mut Vec<u8>) {
+        self.0.save(out);
+        self.1.save(out);
+    }
+    fn load(&mut self, input: &mut Reader) -> Result<(), String> {
+        self.0.load(input)?;
+        self.1.load(input)
     }
 }
 
@@ -330,6 +348,100 @@ fields_state!(Sinks {
     events
 });
 
+fields_state!(FluidStats {
+    steps,
+    seconds,
+    step_seconds,
+    momentum_cycles,
+    momentum_log_rate,
+    pressure_cycles,
+    pressure_log_rate,
+    momentum_seconds,
+    pressure_seconds,
+    max_divergence,
+});
+fields_state!(PenaltyFace { face, rate, target });
+fields_state!(FlowLevels {
+    u,
+    p,
+    previous,
+    previous_dt,
+    held,
+    penalty,
+    time,
+    steps,
+});
+fields_state!(ParticleFace {
+    face,
+    row,
+    id,
+    start
+});
+fields_state!(CellMarkers {
+    marker,
+    marked,
+    rigid_faces,
+    particle_faces,
+    blend_faces,
+    penalty_rows,
+});
+fields_state!(HydroForces {
+    force,
+    torque,
+    exchange_force,
+    exchange_torque,
+    sampled_steps,
+});
+fields_state!(CloudState {
+    time,
+    mean_velocity,
+    max_speed,
+    clusters,
+    all_on_side,
+});
+
+/// Of the flow its time levels (velocity, pressure, the earlier level and the prescribed
+/// and penalised faces: [`FlowLevels`]), the time of its next step and its step figures.
+impl State for FluidFlow {
+    fn save(&self, out: &mut Vec<u8>) {
+        self.solver.levels().save(out);
+        self.next_time.save(out);
+        self.stats.save(out);
+    }
+    fn load(&mut self, input: &mut Reader) -> Result<(), String> {
+        let mut levels = FlowLevels::default();
+        levels.load(input)?;
+        self.solver.set_levels(levels)?;
+        self.next_time.load(input)?;
+        self.stats.load(input)
+    }
+}
+
+/// Of the coupling log its records and the cloud states; loading writes `coupling.csv`
+/// again with the records taken up to the checkpoint.
+impl State for CouplingLog {
+    fn save(&self, out: &mut Vec<u8>) {
+        self.time.save(out);
+        self.state.save(out);
+        self.ids.save(out);
+        self.recorded_steps.save(out);
+        self.cloud.save(out);
+    }
+    fn load(&mut self, input: &mut Reader) -> Result<(), String> {
+        self.time.load(input)?;
+        self.state.load(input)?;
+        self.ids.load(input)?;
+        self.recorded_steps.load(input)?;
+        self.cloud.load(input)?;
+        if self.state.len() != self.time.len()
+            || self.state.iter().any(|s| s.len() != self.ids.len())
+        {
+            return Err("records of differing lengths".into());
+        }
+        self.rewrite_csv()
+    }
+}
+
 /// Of the walls only whether each is still there changes.
 impl State for Walls {
     fn save(&self, out: &mut Vec<u8>) {
@@ -448,7 +560,7 @@ fn apply<T: Resource<Mutability = bevy_ecs::component::Mutable> + State>(
 }
 
 /// Every saved resource type, in a fixed order.
-fn resources() -> [ResourceFn; 19] {
+fn resources() -> [ResourceFn; 23] {
     [
         apply::<SimClock>,
         apply::<Particles>,
@@ -468,6 +580,10 @@ fn resources() -> [ResourceFn; 19] {
         apply::<Walls>,
         apply::<Inflows>,
         apply::<Sinks>,
+        apply::<FluidFlow>,
+        apply::<CellMarkers>,
+        apply::<HydroForces>,
+        apply::<CouplingLog>,
         apply::<ParticleOutput>,
     ]
 }
@@ -548,21 +664,16 @@ pub struct Checkpoint {
     state: Vec<(String, Vec<u8>)>,
 }
 
-/// Read `dir/checkpoint.h5`; the error says what is wrong with which file.
+/// Read `dir/checkpoint.h5`; the error says what is wrong with it (the caller names the
+/// file).
 pub fn read_checkpoint(dir: &Path) -> Result<Checkpoint, String> {
     let path = dir.join(CHECKPOINT_FILE);
     if !path.is_file() {
-        return Err(format!(
-            "{}: no checkpoint; expected a run directory written with --checkpoint-every",
-            path.display()
-        ));
+        return Err(
+            "no checkpoint; expected a run directory written with --checkpoint-every".into(),
+        );
     }
-    let bad = |e: hdf5::Error| {
-        format!(
-            "{}: not a readable grainflow checkpoint ({e})",
-            path.display()
-        )
-    };
+    let bad = |e: hdf5::Error| format!("not a readable grainflow checkpoint ({e})");
     let file = hdf5::File::open(&path).map_err(bad)?;
     let version: u32 = file
         .attr("version")
@@ -570,13 +681,12 @@ pub fn read_checkpoint(dir: &Path) -> Result<Checkpoint, String> {
         .map_err(bad)?;
     if version != CHECKPOINT_VERSION {
         return Err(format!(
-            "{}: checkpoint version {version}; expected version {CHECKPOINT_VERSION}",
-            path.display()
+            "checkpoint version {version}; expected version {CHECKPOINT_VERSION}"
         ));
     }
     let text = |name: &str| -> Result<String, String> {
         let bytes: Vec<u8> = file.dataset(name).and_then(|d| d.read_raw()).map_err(bad)?;
-        String::from_utf8(bytes).map_err(|_| format!("{}: `{name}` is not UTF-8", path.display()))
+        String::from_utf8(bytes).map_err(|_| format!("`{name}` is not UTF-8"))
     };
     let overrides = text("overrides")?;
     let scene = SavedScene {

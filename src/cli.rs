@@ -459,13 +459,6 @@ fn run(args: RunArgs) -> ExitCode {
             Ok(s) => s,
             Err(e) => return bad_input(e),
         };
-        if (every_time.is_some() || every_wall.is_some()) && !sim.can_checkpoint() {
-            return bad_input(SceneError {
-                file: args.scene.clone(),
-                field: "--checkpoint-every".into(),
-                message: "expected a scene without a fluid grid: the flow's state is not checkpointed yet".into(),
-            });
-        }
         let control = RunControl {
             every_time,
             every_wall,

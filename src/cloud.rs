@@ -170,7 +170,7 @@ pub fn on_floor_count(
 /// What the cloud observables need of one state of the spheres, whatever the direction
 /// of gravity: mean velocity, largest speed, cluster count, and for each side of the box
 /// (the order of [`Floor::sides`]) whether every sphere lies on it or on spheres that do.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CloudState {
     pub time: f64,
     pub mean_velocity: [f64; 3],

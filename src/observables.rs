@@ -46,7 +46,7 @@ pub struct CouplingLog {
     /// Per record, per particle (sorted by id): position, velocity, hydrodynamic force.
     pub state: Vec<Vec<[[f64; 3]; 3]>>,
     pub ids: Vec<u32>,
-    recorded_steps: u64,
+    pub(crate) recorded_steps: u64,
     /// `coupling.csv` of the run directory, if any: every record is appended to it as it
     /// is taken, so a run that stops early (a failure, a kill) keeps its history.
     pub csv: Option<PathBuf>,
@@ -154,12 +154,25 @@ impl CouplingLog {
     /// A log that appends its records to `path` (`coupling.csv` of a run directory),
     /// created now with its header ([`COUPLING_CSV_HEADER`]).
     pub fn writing_to(path: PathBuf) -> Result<Self, String> {
-        std::fs::write(&path, COUPLING_CSV_HEADER)
-            .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
-        Ok(Self {
+        let log = Self {
             csv: Some(path),
             ..Self::default()
-        })
+        };
+        log.rewrite_csv()?;
+        Ok(log)
+    }
+
+    /// Write `coupling.csv` afresh: the header and the records held (none for a new
+    /// log; those up to the checkpoint for a resumed run).
+    pub fn rewrite_csv(&self) -> Result<(), String> {
+        let Some(path) = &self.csv else {
+            return Ok(());
+        };
+        let mut text = COUPLING_CSV_HEADER.to_string();
+        for k in 0..self.time.len() {
+            text.push_str(&self.record_csv(k));
+        }
+        std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
     }
 
     /// Record `k` as lines of `coupling.csv`: one per particle,

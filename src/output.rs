@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 use bevy_ecs::prelude::*;
 use grainflow_components::{Particles, RunHealth, SimClock};
+use grainflow_fluid::Grid;
 use grainflow_systems::fluid::FluidFlow;
 
 /// One written frame.
@@ -106,6 +107,15 @@ impl ParticleOutput {
             });
         }
         frames.sort_by_key(|f| f.step);
+        let fluid_path = dir.join("fluid.h5");
+        let fluid = if fluid_path.is_file() {
+            Some(
+                hdf5::File::open_rw(&fluid_path)
+                    .map_err(|e| format!("cannot read {}: {e}", fluid_path.display()))?,
+            )
+        } else {
+            None
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             file,
@@ -113,12 +123,13 @@ impl ParticleOutput {
             interval,
             next_time: 0.0,
             error: None,
-            fluid: None,
+            fluid,
         })
     }
 
-    /// Keep the first `count` frames: the later ones are removed from the file and the
-    /// XDMF index.
+    /// Keep the first `count` frames: the later ones are removed from the files
+    /// (particles.h5 and fluid.h5) and from the particles' XDMF index (the flow's is
+    /// rewritten by [`ParticleOutput::write_fluid_xdmf`], which needs the grid).
     pub fn keep_frames(&mut self, count: usize) -> Result<(), String> {
         if count > self.frames.len() {
             return Err(format!(
@@ -127,9 +138,20 @@ impl ParticleOutput {
             ));
         }
         for f in self.frames.drain(count..) {
+            let name = format!("step_{:08}", f.step);
             self.file
-                .unlink(&format!("step_{:08}", f.step))
+                .unlink(&name)
                 .map_err(|e| format!("removing a frame from particles.h5: {e}"))?;
+            if let Some(fluid) = self.fluid.as_ref().filter(|h5| h5.link_exists(&name)) {
+                fluid
+                    .unlink(&name)
+                    .map_err(|e| format!("removing a frame from fluid.h5: {e}"))?;
+            }
+        }
+        if let Some(fluid) = &self.fluid {
+            fluid
+                .flush()
+                .map_err(|e| format!("writing fluid.h5: {e}"))?;
         }
         self.file
             .flush()
@@ -216,7 +238,11 @@ impl ParticleOutput {
             time: clock.time,
             particles: n,
         });
-        self.write_xdmf()
+        self.write_xdmf()?;
+        match flow {
+            Some(flow) => self.write_fluid_xdmf(flow.solver.grid()),
+            None => Ok(()),
+        }
     }
 
     /// The flow at cell centres: each velocity component is the mean of its six face
@@ -271,25 +297,18 @@ impl ParticleOutput {
             .map_err(h5)?
             .write_raw(&solver.p)
             .map_err(h5)?;
-        file.flush().map_err(h5)?;
-        self.write_fluid_xdmf(flow, clock)
+        file.flush().map_err(h5)
     }
 
-    fn write_fluid_xdmf(&self, flow: &FluidFlow, clock: &SimClock) -> Result<(), String> {
-        let grid = flow.solver.grid();
+    /// `fluid.xdmf`: the flow's frames, one per particle frame, on the grid `grid`.
+    pub fn write_fluid_xdmf(&self, grid: &Grid) -> Result<(), String> {
         let [nx, ny, nz] = grid.n();
         let [hx, hy, hz] = grid.h();
         let [x0, y0, z0] = grid.lower;
         let mut x = String::new();
         x.push_str("<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n");
         x.push_str("  <Grid Name=\"fluid\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-        // Frames written so far: those of the particle file plus this one.
-        let steps = self
-            .frames
-            .iter()
-            .map(|f| (f.step, f.time))
-            .chain([(clock.step, clock.time)]);
-        for (step, time) in steps {
+        for &Frame { step, time, .. } in &self.frames {
             let g = format!("fluid.h5:/step_{step:08}");
             let _ = writeln!(x, "   <Grid Name=\"step_{step:08}\" GridType=\"Uniform\">");
             let _ = writeln!(x, "    <Time Value=\"{time:.17e}\"/>");

@@ -177,8 +177,22 @@ impl Simulation {
         let mut world = crate::build::world_from_scene(&scene, &saved.path)?;
         let out = ParticleOutput::reopen(dir, scene.simulation.output_interval).map_err(bad)?;
         world.insert_resource(out);
+        if world.contains_resource::<grainflow_components::Coupling>() {
+            // its records up to the checkpoint are written again when it is restored
+            world.insert_resource(CouplingLog {
+                csv: Some(dir.join("coupling.csv")),
+                ..CouplingLog::default()
+            });
+        }
         let mut sim = Self::assemble(scene, world, None, true);
         checkpoint.restore(&mut sim.world).map_err(bad)?;
+        let world = &sim.world;
+        if let (Some(out), Some(flow)) = (
+            world.get_resource::<ParticleOutput>(),
+            world.get_resource::<FluidFlow>(),
+        ) {
+            out.write_fluid_xdmf(flow.solver.grid()).map_err(bad)?;
+        }
         let estimate = stability::estimate(
             &sim.scene,
             sim.world.resource::<Particles>(),
@@ -186,11 +200,6 @@ impl Simulation {
         );
         sim.estimate = estimate;
         Ok(sim)
-    }
-
-    /// Whether the run can be checkpointed: a DEM scene (the flow's state is not saved).
-    pub fn can_checkpoint(&self) -> bool {
-        !self.world.contains_resource::<FluidFlow>()
     }
 
     /// Forces at t = 0 and integrator start values; writes the first frame.
@@ -285,7 +294,7 @@ impl Simulation {
         // A state the start-up already found unphysical (particles placed overlapping)
         // fails at step 0, before any step.
         let mut failure = self.failure();
-        let checkpoints = control.dir.is_some() && self.can_checkpoint();
+        let checkpoints = control.dir.is_some();
         let dt = self.world.resource::<SimClock>().dt;
         // The next checkpoint time: the first multiple of the interval after now.
         let next_after = |t: f64, every: f64| ((t + 0.5 * dt) / every).floor() * every + every;

@@ -5,7 +5,8 @@
 //! from an inflow (stopped mid-inflow), the same with friction (contacts and wall contacts
 //! carrying tangential springs), and an adhesive chain with friction and rolling
 //! resistance hanging from a fixed sphere, and a frictional hopper discharging through
-//! a sink (particles removed before and after the checkpoint). SIGTERM and SIGINT stop a run at a
+//! a sink (particles removed before and after the checkpoint); and coupled scenes stopped
+//! between fluid steps (the flow's output and coupling history as well). SIGTERM and SIGINT stop a run at a
 //! checkpoint (exit 143 / 130, status "interrupted"); a run killed outright resumes from
 //! its last complete checkpoint; bad input to `resume` and `--checkpoint-every` exits 2.
 mod common;
@@ -133,8 +134,103 @@ fn a_resumed_run_writes_what_the_uninterrupted_run_writes() {
             "0.005",
         ),
     ];
+    resumed_runs_match(&cases, assert_same_output);
+}
+
+/// Coupled scenes stopped between two fluid steps (the DEM subcycles of a fluid step
+/// half done, the hydrodynamic forces held), resumed, against the uninterrupted run:
+/// 64 spheres settling with friction and lubrication under the fluid-momentum update, and
+/// two spheres under the distance-penalty boundary (the penalty list carried over) and
+/// under the prescribed update with velocity blending; the particles, the flow's frames
+/// (fluid.h5, fluid.xdmf), coupling.csv and the observables agree bit for bit.
+#[test]
+fn a_resumed_coupled_run_writes_what_the_uninterrupted_run_writes() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let sedimentation = format!("{root}/cases/sedimentation-64.toml");
+    let dkt = format!("{root}/cases/dkt.toml");
+    // dt_F = 2.5e-3 with 63 subcycles; the stop falls in the 10th substep of a fluid step
+    let cases: [Case; 3] = [
+        (
+            "64 spheres settling",
+            &sedimentation,
+            &[
+                "fluid.level=3",
+                "coupling.lubrication=true",
+                "simulation.output_interval=0.01",
+            ],
+            "0.0321",
+            "0.0137",
+            "0.05",
+        ),
+        // dt_F = 1e-4 with 11 subcycles; the stop falls in the 8th substep
+        (
+            "two spheres, distance penalty",
+            &dkt,
+            &[
+                "fluid.level=2",
+                "coupling.boundary=distance_penalty",
+                "simulation.output_interval=0.001",
+            ],
+            "0.00337",
+            "0.00131",
+            "0.006",
+        ),
+        (
+            "two spheres, prescribed and blended",
+            &dkt,
+            &[
+                "fluid.level=2",
+                "coupling.update=prescribed",
+                "coupling.alpha=0.1",
+                "simulation.output_interval=0.001",
+            ],
+            "0.00337",
+            "0.00131",
+            "0.006",
+        ),
+    ];
+    resumed_runs_match(&cases, assert_same_flow);
+}
+
+/// As [`assert_same_output`], and the flow's output, the coupling history and the
+/// observables.
+fn assert_same_flow(a: &Path, b: &Path, what: &str) {
+    assert_same_output(a, b, what);
+    let flow = |dir: &Path| -> Vec<(String, u64, Vec<u64>, Vec<u64>)> {
+        let file = hdf5::File::open(dir.join("fluid.h5")).expect("fluid.h5");
+        let mut names = file.member_names().expect("groups");
+        names.sort();
+        let bits = |v: Vec<f64>| v.into_iter().map(f64::to_bits).collect();
+        names
+            .into_iter()
+            .map(|name| {
+                let g = file.group(&name).expect("group");
+                let time: f64 = g.attr("time").unwrap().read_scalar().unwrap();
+                let read = |d: &str| bits(g.dataset(d).unwrap().read_raw::<f64>().unwrap());
+                (name, time.to_bits(), read("velocity"), read("pressure"))
+            })
+            .collect()
+    };
+    let (fa, fb) = (flow(a), flow(b));
+    assert!(fa.len() > 2, "{what}: {} flow frames", fa.len());
+    assert!(fa == fb, "{what}: fluid.h5 differs");
+    for file in ["fluid.xdmf", "coupling.csv"] {
+        let read = |dir: &Path| std::fs::read_to_string(dir.join(file)).expect(file);
+        assert!(read(a) == read(b), "{what}: {file} differs");
+    }
+    let observables = |dir: &Path| {
+        let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
+        let s: serde_json::Value = serde_json::from_str(&text).expect("json");
+        s["observables"].clone()
+    };
+    assert_eq!(observables(a), observables(b), "{what}: observables differ");
+}
+
+/// Each case run uninterrupted into `a`, and stopped (checkpointed at its interval and
+/// at its stop) into `b` and resumed there, on 1 and 2 threads; `same` compares them.
+fn resumed_runs_match(cases: &[Case], same: fn(&Path, &Path, &str)) {
     for threads in ["1", "2"] {
-        for (name, scene, sets, stop, every, end) in cases {
+        for (name, scene, sets, stop, every, end) in cases.iter().copied() {
             let dir = tempfile::tempdir().expect("temp dir");
             let a = dir.path().join("a");
             let b = dir.path().join("b");
@@ -171,7 +267,7 @@ fn a_resumed_run_writes_what_the_uninterrupted_run_writes() {
             args.extend(&set);
             ok(&args);
             ok(&["resume", b_s, "--until", end, "--threads", threads]);
-            assert_same_output(&a, &b, &format!("{name}, {threads} threads"));
+            same(&a, &b, &format!("{name}, {threads} threads"));
         }
     }
 }
@@ -329,21 +425,4 @@ fn bad_checkpoint_input_exits_2() {
             "{every}: {code}: {stderr}"
         );
     }
-    let fluid = format!("{root}/cases/drag-sphere.toml");
-    let (code, _, stderr) = run_cli(&[
-        "run",
-        &fluid,
-        "--out",
-        out.to_str().unwrap(),
-        "--steps",
-        "1",
-        "--checkpoint-every",
-        "1",
-        "--set",
-        "fluid.level=1",
-    ]);
-    assert!(
-        code == 2 && stderr.contains("`--checkpoint-every`"),
-        "{code}: {stderr}"
-    );
 }

@@ -50,7 +50,7 @@ pub enum ParticleUpdate {
 /// A fluid face inside a particle under [`ParticleUpdate::FluidMomentum`]: its index,
 /// the particle's row and id (the row may change before the next fluid step, the id
 /// does not), and the rigid-body velocity it started the fluid step with.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParticleFace {
     pub face: u32,
     pub row: u32,

@@ -82,6 +82,8 @@ pub mod stokes;
 pub use grid::{dofs_of_level, Boundaries, BoundaryKind, Grid, GridError, Layout};
 pub use mg_cell::{MgReport, PressureMg};
 pub use mg_face::{Cycle, FaceMg};
-pub use navier::{NavierStokes, NsConfig, PenaltyFace, StepReport, TimeScheme, ViscousForm};
+pub use navier::{
+    FlowLevels, NavierStokes, NsConfig, PenaltyFace, StepReport, TimeScheme, ViscousForm,
+};
 pub use ops::{CellOperator, Convection, FaceOperator, PressureForce, TransposeStiffness};
 pub use stokes::{body_force_load, StokesReport, StokesSolver};

@@ -322,12 +322,32 @@ struct Scratch {
 /// the particle's rigid-body velocity, `grainflow_systems::coupling::distance_penalty`).
 /// It is taken backward-Euler within each substep of every scheme (a stiff term):
 /// `M_l (u - u_old) = ... - k_s rate M_l (u - target)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PenaltyFace {
     pub face: u32,
     /// Rate in 1/s.
     pub rate: f64,
     pub target: [f64; 3],
+}
+
+/// What a restarted [`NavierStokes`] needs to continue exactly as the flow it was taken
+/// from ([`NavierStokes::levels`], [`NavierStokes::set_levels`]): the velocity and
+/// pressure, the velocity before the last substep and that substep's length (the
+/// extrapolated convecting velocity `u*` and the momentum solve's initial guess use
+/// them), the faces prescribed beyond the box's, the penalised faces, the time and the
+/// step count (the start-up steps). The rest of the solver is either fixed by the scene
+/// or overwritten before it is read.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FlowLevels {
+    pub u: [Vec<f64>; 3],
+    pub p: Vec<f64>,
+    pub previous: Option<[Vec<f64>; 3]>,
+    pub previous_dt: f64,
+    /// Prescribed faces that the box's sides do not prescribe, ascending.
+    pub held: Vec<u32>,
+    pub penalty: Vec<PenaltyFace>,
+    pub time: f64,
+    pub steps: usize,
 }
 
 /// Transient incompressible Navier-Stokes solver on one grid level.
@@ -432,6 +452,55 @@ impl NavierStokes {
     /// step.
     pub fn set_project_markers(&mut self, on: bool) {
         self.project_markers = on;
+    }
+
+    /// The state a restart continues from (see [`FlowLevels`]).
+    pub fn levels(&self) -> FlowLevels {
+        let held = (0..self.mask.len())
+            .filter(|&f| self.mask[f] && !self.box_mask[f])
+            .map(|f| f as u32)
+            .collect();
+        FlowLevels {
+            u: self.u.clone(),
+            p: self.p.clone(),
+            previous: self.prev.as_ref().map(|(u, _)| u.clone()),
+            previous_dt: self.prev.as_ref().map_or(0.0, |(_, k)| *k),
+            held,
+            penalty: self.penalty.clone(),
+            time: self.time,
+            steps: self.steps,
+        }
+    }
+
+    /// Continue from `levels` (of a solver on the same grid, from [`NavierStokes::levels`]);
+    /// the error says which part does not fit this grid.
+    pub fn set_levels(&mut self, levels: FlowLevels) -> Result<(), String> {
+        let (nf, nc) = (self.grid.num_faces(), self.grid.num_cells());
+        let faces_fit = |u: &[Vec<f64>; 3]| u.iter().all(|c| c.len() == nf);
+        if !faces_fit(&levels.u) || levels.previous.as_ref().is_some_and(|u| !faces_fit(u)) {
+            return Err(format!("a velocity of other than {nf} faces"));
+        }
+        if levels.p.len() != nc {
+            return Err(format!("a pressure of other than {nc} cells"));
+        }
+        let outside = |f: u32| f as usize >= nf;
+        if levels.held.iter().copied().any(outside)
+            || levels.penalty.iter().any(|pf| outside(pf.face))
+        {
+            return Err(format!("a face beyond the grid's {nf}"));
+        }
+        let release: Vec<u32> = (0..nf)
+            .filter(|&f| self.mask[f] && !self.box_mask[f])
+            .map(|f| f as u32)
+            .collect();
+        self.move_mask(&release, &levels.held);
+        self.u = levels.u;
+        self.p = levels.p;
+        self.prev = levels.previous.map(|u| (u, levels.previous_dt));
+        self.penalty = levels.penalty;
+        self.time = levels.time;
+        self.steps = levels.steps;
+        Ok(())
     }
 
     /// The faces whose velocity the box's boundary conditions prescribe.
@@ -921,6 +990,62 @@ mod tests {
         println!("one against two coarse cells in z: max |du| {diff:.2e}, u {one:?}");
         assert!(one[7] < -0.1, "the flow has developed: {one:?}");
         assert!(diff < 1e-7, "max |du| {diff}");
+    }
+
+    /// A solver started from the [`FlowLevels`] of another continues bit for bit as that
+    /// one does (a restart): the cavity under fractional-step theta with the deferred
+    /// upwind correction, a block of extra prescribed faces (held at rest) and a penalty
+    /// on others, taken after 5 steps (the previous level and the start-up step behind
+    /// it), into a fresh solver whose mask holds other faces; 4 steps more on both.
+    #[test]
+    fn a_solver_set_to_the_levels_of_another_continues_bitwise() {
+        let mut cfg = NsConfig::new(0.01, 0.2);
+        cfg.scheme = TimeScheme::FractionalStepTheta;
+        cfg.solve_upwind = Some(0.5);
+        let fresh = || ghia::cavity(8, 2, 1, 0.5, cfg.clone());
+        let mut a = fresh();
+        let free: Vec<u32> = (0..a.mask.len() as u32)
+            .filter(|&f| !a.mask[f as usize])
+            .collect();
+        let (held, penalised) = (&free[10..20], &free[40..50]);
+        a.move_mask(&[], held);
+        a.set_penalty(
+            penalised
+                .iter()
+                .map(|&face| PenaltyFace {
+                    face,
+                    rate: 50.0,
+                    target: [0.1, 0.0, 0.0],
+                })
+                .collect(),
+        );
+        for _ in 0..5 {
+            a.step();
+        }
+        let levels = a.levels();
+        assert_eq!(levels.held, held, "the extra prescribed faces are saved");
+        let mut b = fresh();
+        b.move_mask(&[], &free[30..35]);
+        b.set_levels(levels).expect("same grid");
+        assert_eq!(a.mask, b.mask);
+        for _ in 0..4 {
+            a.step();
+            b.step();
+        }
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for c in 0..3 {
+            assert_eq!(bits(&a.u[c]), bits(&b.u[c]), "velocity component {c}");
+        }
+        assert_eq!(bits(&a.p), bits(&b.p), "pressure");
+        assert!(
+            a.u[0].iter().any(|&u| u.abs() > 1e-3),
+            "the flow has developed"
+        );
+        let mut other = ghia::cavity(4, 2, 1, 0.5, cfg);
+        assert!(
+            other.set_levels(a.levels()).is_err(),
+            "another grid is refused"
+        );
     }
 
     /// The residual of [`NavierStokes::momentum_residual_at`], face by face from the
