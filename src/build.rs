@@ -9,8 +9,8 @@ use grainflow_systems::inflow::next_f64;
 use grainflow_systems::walls::{wall_contains, wall_distance};
 
 use crate::scene::{
-    Axis, BoundaryRuleName, ForceMethodName, ParticleUpdateName, RegionSpec, Scene, SceneError,
-    SurfaceSpec, WallSpec,
+    Axis, BoundaryRuleName, ForceMethodName, InsideFluidName, ParticleUpdateName, RegionSpec,
+    Scene, SceneError, SurfaceSpec, WallSpec,
 };
 
 /// The pair table: E* from both materials, damping laws averaged when both materials use
@@ -602,6 +602,10 @@ fn insert_coupling(world: &mut World, scene: &Scene, n_s: u32, rows: usize) {
         update: match spec.update {
             ParticleUpdateName::FluidMomentum => ParticleUpdate::FluidMomentum,
             ParticleUpdateName::Prescribed => ParticleUpdate::Prescribed,
+        },
+        inside: match spec.inside_fluid {
+            InsideFluidName::Particle => InsideFluid::Particle,
+            InsideFluidName::Fluid => InsideFluid::Fluid,
         },
         boundary: match spec.boundary {
             BoundaryRuleName::FaceCentre => BoundaryRule::FaceCentre,

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use bevy_ecs::prelude::*;
 use grainflow_components::*;
 
-use grainflow_fluid::{FlowLevels, PenaltyFace};
+use grainflow_fluid::{FaceLoad, FlowLevels, PenaltyFace};
 use grainflow_systems::fluid::{FluidFlow, FluidStats};
 
 use crate::cloud::CloudState;
@@ -29,7 +29,7 @@ use crate::observables::CouplingLog;
 use crate::output::ParticleOutput;
 
 /// Format of the state blobs; a checkpoint of another version is refused.
-pub const CHECKPOINT_VERSION: u32 = 3;
+pub const CHECKPOINT_VERSION: u32 = 4;
 
 /// The checkpoint file of a run directory.
 pub const CHECKPOINT_FILE: &str = "checkpoint.h5";
@@ -361,6 +361,7 @@ fields_state!(FluidStats {
     max_divergence,
 });
 fields_state!(PenaltyFace { face, rate, target });
+fields_state!(FaceLoad { face, accel });
 fields_state!(FlowLevels {
     u,
     p,
@@ -368,6 +369,7 @@ fields_state!(FlowLevels {
     previous_dt,
     held,
     penalty,
+    loads,
     time,
     steps,
 });
@@ -375,7 +377,8 @@ fields_state!(ParticleFace {
     face,
     row,
     id,
-    start
+    start,
+    load
 });
 fields_state!(CellMarkers {
     marker,
@@ -390,6 +393,7 @@ fields_state!(HydroForces {
     torque,
     exchange_force,
     exchange_torque,
+    inside_force,
     sampled_steps,
 });
 fields_state!(CloudState {

@@ -284,6 +284,7 @@ fn bad_coupling_update_and_solver_tolerances_exit_2_naming_the_field() {
     for extra in [
         "momentum_rtol = 1.0e-4\npressure_rtol = 1.0e-6\n\n[coupling]\nupdate = \"prescribed\"",
         "[coupling]\nupdate = \"fluid_momentum\"",
+        "[coupling]\nupdate = \"fluid_momentum\"\ninside_fluid = \"fluid\"",
     ] {
         let path = write_scene(d, "base.toml", &in_fluid(extra));
         let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
@@ -300,6 +301,17 @@ fn bad_coupling_update_and_solver_tolerances_exit_2_naming_the_field() {
         message.contains("implicit")
             && message.contains("fluid_momentum")
             && message.contains("prescribed"),
+        "the message does not name the value and the accepted names:\n{message}"
+    );
+    let inside = in_fluid("[coupling]\nupdate = \"fluid_momentum\"\ninside_fluid = \"solid\"");
+    let message = rejected(
+        d,
+        &write_scene(d, "unknown_inside_fluid.toml", &inside),
+        &[],
+        "coupling.inside_fluid",
+    );
+    assert!(
+        message.contains("solid") && message.contains("particle") && message.contains("fluid"),
         "the message does not name the value and the accepted names:\n{message}"
     );
     for (name, value) in [

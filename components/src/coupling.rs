@@ -47,15 +47,34 @@ pub enum ParticleUpdate {
     Prescribed,
 }
 
+/// How the fluid inside a free particle accelerates through a fluid step under
+/// [`ParticleUpdate::FluidMomentum`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InsideFluid {
+    /// With the particle: a load on the faces inside (the particle's predicted
+    /// acceleration less the fluid's own, `grainflow_systems::coupling::markers`) keeps
+    /// them moving as the particle does through the step, so the flow sees the particle
+    /// where and as fast as it is.
+    Particle,
+    /// As fluid, by the force of the fluid around it alone (the rule before issue 37): at
+    /// a terminal velocity the body the flow sees slows by `(rho_p / rho_f - 1) g dt_F`
+    /// within each step while the particle does not, a first-order time error (a settling
+    /// sphere falls too fast).
+    Fluid,
+}
+
 /// A fluid face inside a particle under [`ParticleUpdate::FluidMomentum`]: its index,
 /// the particle's row and id (the row may change before the next fluid step, the id
-/// does not), and the rigid-body velocity it started the fluid step with.
+/// does not), the rigid-body velocity it started the fluid step with, and the body force
+/// per unit mass it felt through the step (the load that makes the fluid inside the
+/// particle accelerate with the particle).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ParticleFace {
     pub face: u32,
     pub row: u32,
     pub id: u32,
     pub start: [f64; 3],
+    pub load: [f64; 3],
 }
 
 /// Directions and weights of a quadrature rule on the unit sphere (weights sum to 1).
@@ -80,6 +99,8 @@ pub struct Coupling {
     pub method: ForceMethod,
     /// How free particles follow the flow.
     pub update: ParticleUpdate,
+    /// How the fluid inside free particles accelerates (fluid-momentum update).
+    pub inside: InsideFluid,
     /// Where the fluid sees the particles' surfaces.
     pub boundary: BoundaryRule,
     /// Force points of [`ForceMethod::SurfacePoints`].
@@ -118,6 +139,10 @@ pub struct HydroForces {
     /// velocity blending; added to `force` and `torque` when they are sampled.
     pub exchange_force: Columns,
     pub exchange_torque: Columns,
+    /// Force of the fluid around each free particle on the fluid inside it in the last
+    /// fluid step (fluid-momentum update, without the load): what accelerates the fluid
+    /// inside when it carries no load.
+    pub inside_force: Columns,
     /// Fluid steps whose forces have been sampled.
     pub sampled_steps: u64,
 }
@@ -129,6 +154,7 @@ impl HydroForces {
             .chain(self.torque.iter_mut())
             .chain(self.exchange_force.iter_mut())
             .chain(self.exchange_torque.iter_mut())
+            .chain(self.inside_force.iter_mut())
     }
 }
 
@@ -144,6 +170,6 @@ impl PerParticle for HydroForces {
         }
     }
     fn bytes_per_row(&self) -> usize {
-        8 * 12
+        8 * 15
     }
 }

@@ -27,8 +27,8 @@ pub use contact_law::{
     TangentialStiffness, WallHistory,
 };
 pub use coupling::{
-    BoundaryRule, CellMarkers, Coupling, ForceMethod, HydroForces, ParticleFace, ParticleUpdate,
-    SphereRule,
+    BoundaryRule, CellMarkers, Coupling, ForceMethod, HydroForces, InsideFluid, ParticleFace,
+    ParticleUpdate, SphereRule,
 };
 pub use energy::EnergyBalance;
 pub use health::RunHealth;

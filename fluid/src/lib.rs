@@ -83,7 +83,7 @@ pub use grid::{dofs_of_level, Boundaries, BoundaryKind, Grid, GridError, Layout}
 pub use mg_cell::{MgReport, PressureMg};
 pub use mg_face::{Cycle, FaceMg};
 pub use navier::{
-    FlowLevels, NavierStokes, NsConfig, PenaltyFace, StepReport, TimeScheme, ViscousForm,
+    FaceLoad, FlowLevels, NavierStokes, NsConfig, PenaltyFace, StepReport, TimeScheme, ViscousForm,
 };
 pub use ops::{CellOperator, Convection, FaceOperator, PressureForce, TransposeStiffness};
 pub use stokes::{body_force_load, StokesReport, StokesSolver};

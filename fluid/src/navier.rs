@@ -330,11 +330,22 @@ pub struct PenaltyFace {
     pub target: [f64; 3],
 }
 
+/// A body force per unit mass on one face's velocity for the following steps (the load
+/// that makes the fluid inside a free particle accelerate with the particle,
+/// `grainflow_systems::coupling::markers`): `M_l (u - u_old) = ... + k_s M_l accel` in
+/// every substep.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FaceLoad {
+    pub face: u32,
+    /// Acceleration in length per s^2.
+    pub accel: [f64; 3],
+}
+
 /// What a restarted [`NavierStokes`] needs to continue exactly as the flow it was taken
 /// from ([`NavierStokes::levels`], [`NavierStokes::set_levels`]): the velocity and
 /// pressure, the velocity before the last substep and that substep's length (the
 /// extrapolated convecting velocity `u*` and the momentum solve's initial guess use
-/// them), the faces prescribed beyond the box's, the penalised faces, the time and the
+/// them), the faces prescribed beyond the box's, the penalised and loaded faces, the time and the
 /// step count (the start-up steps). The rest of the solver is either fixed by the scene
 /// or overwritten before it is read.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -346,6 +357,7 @@ pub struct FlowLevels {
     /// Prescribed faces that the box's sides do not prescribe, ascending.
     pub held: Vec<u32>,
     pub penalty: Vec<PenaltyFace>,
+    pub loads: Vec<FaceLoad>,
     pub time: f64,
     pub steps: usize,
 }
@@ -375,6 +387,8 @@ pub struct NavierStokes {
     prev: Option<([Vec<f64>; 3], f64)>,
     /// The penalised faces of [`NavierStokes::set_penalty`].
     penalty: Vec<PenaltyFace>,
+    /// The loaded faces of [`NavierStokes::set_loads`].
+    loads: Vec<FaceLoad>,
     /// The explicit operator `M_l/0 + nu K + N(u)` of the last substep, kept for its
     /// convection tables (refilled in place, not allocated afresh each substep).
     explicit: Option<FaceOperator>,
@@ -417,6 +431,7 @@ impl NavierStokes {
             p: vec![0.0; grid.num_cells()],
             prev: None,
             penalty: Vec::new(),
+            loads: Vec::new(),
             explicit: None,
             scratch: Scratch::default(),
             time: 0.0,
@@ -467,6 +482,7 @@ impl NavierStokes {
             previous_dt: self.prev.as_ref().map_or(0.0, |(_, k)| *k),
             held,
             penalty: self.penalty.clone(),
+            loads: self.loads.clone(),
             time: self.time,
             steps: self.steps,
         }
@@ -486,6 +502,7 @@ impl NavierStokes {
         let outside = |f: u32| f as usize >= nf;
         if levels.held.iter().copied().any(outside)
             || levels.penalty.iter().any(|pf| outside(pf.face))
+            || levels.loads.iter().any(|fl| outside(fl.face))
         {
             return Err(format!("a face beyond the grid's {nf}"));
         }
@@ -498,6 +515,7 @@ impl NavierStokes {
         self.p = levels.p;
         self.prev = levels.previous.map(|u| (u, levels.previous_dt));
         self.penalty = levels.penalty;
+        self.loads = levels.loads;
         self.time = levels.time;
         self.steps = levels.steps;
         Ok(())
@@ -538,6 +556,12 @@ impl NavierStokes {
     /// The penalised faces (see [`NavierStokes::set_penalty`]).
     pub fn penalty(&self) -> &[PenaltyFace] {
         &self.penalty
+    }
+
+    /// The faces that feel a body force of their own through the following steps (see
+    /// [`FaceLoad`]), replacing the earlier list; faces of the mask ignore it.
+    pub fn set_loads(&mut self, faces: Vec<FaceLoad>) {
+        self.loads = faces;
     }
 
     /// Sets the velocity of all faces on side `side` (0 lower, 1 upper) of direction `d`
@@ -703,6 +727,13 @@ impl NavierStokes {
                 rc.iter_mut()
                     .zip(&self.ml)
                     .for_each(|(r, m)| *r += ks * m * f);
+            }
+        }
+        // the faces' own loads: + k_s M_l accel
+        for fl in &self.loads {
+            let f = fl.face as usize;
+            for (rc, a) in sc.rhs.iter_mut().zip(fl.accel) {
+                rc[f] += ks * self.ml[f] * a;
             }
         }
         // the penalty's target: + k_s rate M_l target

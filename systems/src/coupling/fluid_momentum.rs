@@ -48,7 +48,8 @@ pub fn fluid_momentum_force(
         let m = fluid_density * ml[idx];
         let w = [0, 1, 2].map(|d| particles.angular_velocity[d][i]);
         let turned = rigid_rotation_change(w, pf.start, dt_f);
-        let df = [0, 1, 2].map(|d| m * (ns.u[d][idx] - pf.start[d] + turned[d]) / dt_f);
+        let df =
+            [0, 1, 2].map(|d| m * ((ns.u[d][idx] - pf.start[d] + turned[d]) / dt_f - pf.load[d]));
         let (force, torque) = &mut ft[i];
         add_force(force, torque, arm, df);
     }

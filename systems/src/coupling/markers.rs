@@ -40,10 +40,10 @@
 //! [`ParticleUpdate::FluidMomentum`]: grainflow_components::ParticleUpdate::FluidMomentum
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    BoundaryRule, CellMarkers, Clamped, Coupling, HydroForces, ParticleFace, Particles, RunHealth,
-    SimClock,
+    BodyAcceleration, BoundaryRule, CellMarkers, Clamped, Coupling, HydroForces, InsideFluid,
+    ParticleFace, Particles, RunHealth, SimClock,
 };
-use grainflow_fluid::Grid;
+use grainflow_fluid::{FaceLoad, Grid};
 
 use super::distance_penalty::penalty_faces;
 use super::face_exchange::book_face_exchange;
@@ -55,7 +55,7 @@ use crate::fluid::FluidFlow;
 pub fn cell_markers(
     (clock, mut health): (Res<SimClock>, ResMut<RunHealth>),
     coupling: Res<Coupling>,
-    particles: Res<Particles>,
+    (particles, body): (Res<Particles>, Res<BodyAcceleration>),
     clamped: Option<Res<Clamped>>,
     mut markers: ResMut<CellMarkers>,
     mut flow: ResMut<FluidFlow>,
@@ -177,9 +177,29 @@ pub fn cell_markers(
                 row: i,
                 id: particles.id[i as usize],
                 start: v,
+                load: [0.0; 3],
             });
         }
     }
+    if coupling.inside == InsideFluid::Particle {
+        inside_loads(
+            particle_faces,
+            &particles,
+            &body,
+            &hydro,
+            &flow,
+            coupling.fluid_density,
+        );
+    }
+    flow.solver.set_loads(
+        particle_faces
+            .iter()
+            .map(|pf| FaceLoad {
+                face: pf.face,
+                accel: pf.load,
+            })
+            .collect(),
+    );
     flow.solver.move_mask(&released, rigid_faces);
     if coupling.boundary == BoundaryRule::DistancePenalty {
         let is_inside = |face| {
@@ -205,6 +225,52 @@ pub fn cell_markers(
             .binary_search_by_key(&face, |&(inner, _, _)| inner)
             .is_err()
     });
+}
+
+/// The load of the faces inside the free particles: the body force per unit mass that
+/// makes the fluid inside a particle accelerate with the particle through the fluid step.
+///
+/// Without it the fluid inside accelerates as fluid, by the force of the fluid around,
+/// `F_in / (rho_f V)`, while the particle accelerates by
+/// `a_p = g (1 - rho_f / rho_p) + (F_c + F_h) / m_p` (contacts and the whole hydrodynamic
+/// force). A settling sphere at its terminal velocity then slows within every step by
+/// `(rho_p / rho_f - 1) g dt_F`, and the flow sees a body slower than the particle: a
+/// first-order time error that makes it fall too fast. The load is the difference of the
+/// two, predicted from the last fluid step: `b = a_p - F_in / (rho_f sum_f M_f)` with
+/// `F_h` and `F_in` of the last step and `F_c` of this substep (at the fixed point of a
+/// particle accelerating from rest in still fluid it gives the added-mass force
+/// exactly). [`super::fluid_momentum`] takes the load's impulse out of the force again.
+fn inside_loads(
+    faces: &mut [ParticleFace],
+    particles: &Particles,
+    body: &BodyAcceleration,
+    hydro: &HydroForces,
+    flow: &FluidFlow,
+    fluid_density: f64,
+) {
+    let ml = flow.solver.lumped_mass();
+    let mut fluid_mass = vec![0.0; particles.len()];
+    for pf in faces.iter() {
+        fluid_mass[pf.row as usize] += ml[pf.face as usize];
+    }
+    let load: Vec<[f64; 3]> = (0..particles.len())
+        .map(|i| {
+            let g = body.per_material[particles.material[i] as usize];
+            [0, 1, 2].map(|d| {
+                let a_p =
+                    g[d] + particles.inv_mass[i] * (particles.force[d][i] + hydro.force[d][i]);
+                let a_in = if fluid_mass[i] > 0.0 {
+                    hydro.inside_force[d][i] / (fluid_density * fluid_mass[i])
+                } else {
+                    0.0
+                };
+                a_p - a_in
+            })
+        })
+        .collect();
+    for pf in faces.iter_mut() {
+        pf.load = load[pf.row as usize];
+    }
 }
 
 /// Half the diagonal of a cell: how far past a sphere its marked cells reach.

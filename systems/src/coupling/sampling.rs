@@ -68,6 +68,11 @@ pub fn hydrodynamic_sampling(
             coupling.fluid_density,
         )
     });
+    for (i, (f, _)) in carried.iter().enumerate() {
+        for (d, &fd) in f.iter().enumerate() {
+            hydro.inside_force[d][i] = fd;
+        }
+    }
     for (i, (f, t)) in ft.iter().enumerate() {
         let (rf, rt) = reaction.as_ref().map_or(([0.0; 3], [0.0; 3]), |r| r[i]);
         for d in 0..3 {

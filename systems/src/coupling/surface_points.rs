@@ -149,6 +149,7 @@ mod tests {
                 method: ForceMethod::SurfacePoints,
                 update: grainflow_components::ParticleUpdate::Prescribed,
                 boundary: grainflow_components::BoundaryRule::FaceCentre,
+                inside: grainflow_components::InsideFluid::Particle,
                 rule: crate::coupling::lebedev::lebedev_rule(110).unwrap(),
                 subcycles: 1,
             };
