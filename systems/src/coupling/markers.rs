@@ -181,7 +181,8 @@ pub fn cell_markers(
             });
         }
     }
-    if coupling.inside == InsideFluid::Particle {
+    // the old rule (`InsideFluid::Fluid`) loads no face: its solve is the one before
+    let loads = if coupling.inside == InsideFluid::Particle {
         inside_loads(
             particle_faces,
             &particles,
@@ -190,16 +191,17 @@ pub fn cell_markers(
             &flow,
             coupling.fluid_density,
         );
-    }
-    flow.solver.set_loads(
         particle_faces
             .iter()
             .map(|pf| FaceLoad {
                 face: pf.face,
                 accel: pf.load,
             })
-            .collect(),
-    );
+            .collect()
+    } else {
+        Vec::new()
+    };
+    flow.solver.set_loads(loads);
     flow.solver.move_mask(&released, rigid_faces);
     if coupling.boundary == BoundaryRule::DistancePenalty {
         let is_inside = |face| {
