@@ -677,13 +677,6 @@ pub struct InflowSpec {
 
 impl Scene {
     /// Whether the scene has particles (placed or inflowing) or walls: the DEM part.
-    /// Whether the scene has particles that are not all fixed (free spheres, blocks,
-    /// LAMMPS data or inflows).
-    pub fn has_moving_particles(&self) -> bool {
-        self.spheres.iter().any(|s| !s.fixed)
-            || !(self.blocks.is_empty() && self.lammps.is_empty() && self.inflows.is_empty())
-    }
-
     pub fn has_particles(&self) -> bool {
         !(self.spheres.is_empty()
             && self.blocks.is_empty()
@@ -752,11 +745,12 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, Sce
             scene.simulation.dt = dt_f / n_s as f64;
         }
     }
-    let moving = scene.has_moving_particles();
+    let coupled = scene.has_particles();
     if let Some(f) = scene.fluid.as_mut() {
-        // the shared force gives a moving particle its added mass (tests/added_mass.rs);
-        // without one the Galerkin form keeps the figures it was validated with
-        f.pressure_force.get_or_insert(if moving {
+        // the shared force gives a moving particle its added mass (tests/added_mass.rs) and
+        // a fixed one its drag at finite Re (docs/coupling.md); without particles the
+        // Galerkin form keeps the cavity figures it was validated with
+        f.pressure_force.get_or_insert(if coupled {
             FluidPressureForce::Shared
         } else {
             FluidPressureForce::Normal

@@ -74,10 +74,11 @@ fn sphere_moving_with_a_uniform_flow_feels_no_force() {
 /// took the flow carried only 81 % of the body force, and K read -7.4 %). Tolerances, with
 /// the face-centre rule: the fictitious boundary is resolved to a face spacing (a face is
 /// inside or outside), an O(h/a) uncertainty of the sphere's effective radius at 4 cells
-/// per radius; measured -6.5 % for the default volume-integral force (bar 10 %). The
+/// per radius; measured -6.1 % for the default volume-integral force (bar 10 %; -6.5 % with
+/// `fluid.pressure_force = "normal"`). The
 /// seed's surface force points sample the stress in the cells the surface cuts, where
 /// the mean gradient is an O(1) estimate of the wall shear (corrected by the fluid
-/// fraction of the cell): measured +33.5 %, bar 45 %; that is why the volume integral is
+/// fraction of the cell): measured +40.8 % (+33.5 % with the normal force), bar 45 %; that is why the volume integral is
 /// the default. The distance penalty: tests/distance_penalty.rs.
 #[test]
 fn periodic_array_drag_matches_hasimoto() {
@@ -85,7 +86,7 @@ fn periodic_array_drag_matches_hasimoto() {
     let mut failures = Vec::new();
     for (method, tol) in [("volume_integral", 0.10), ("surface_points", 0.45)] {
         let drag =
-            common::periodic_array_drag(8, 3, [0.5; 3], &format!("force = \"{method}\""), 90);
+            common::periodic_array_drag(8, 3, [0.5; 3], &format!("force = \"{method}\""), "", 90);
         println!(
             "{method}: K = {:.4} (Hasimoto {k_ref:.4}, {:+.2} %), drag / body force on the fluid = {:.4}",
             drag.k,
@@ -434,7 +435,8 @@ fn reduced_drag_simulation(
 /// (U = 6), level 2, dt_F = 0.05: upwind scale 0.03 solved directly runs away within
 /// its first fluid steps (the run stops with "runaway flow"); solved with the operator of
 /// scale 0.1 it settles, with less drag than scale 0.1 itself (less numerical
-/// diffusion; measured 0.788 against 0.894; on the seed's 2 x 2 channel at level 2
+/// diffusion; measured 0.794 against 0.944 with the scene's shared pressure force,
+/// 0.788 against 0.894 with the normal one; on the seed's 2 x 2 channel at level 2
 /// 0.749 against 0.851, at level 3 1.141 against 1.206, docs/coupling.md).
 #[test]
 fn deferred_upwind_correction_solves_a_less_diffusive_scale() {
@@ -493,10 +495,11 @@ fn schiller_naumann(re: f64) -> f64 {
 }
 
 /// Without velocity blending the steady drag is a property of the steady flow, not of
-/// the time step: dt_F = 0.02 and 0.05 agree to 0.5 % (measured 1.31153 and 1.31149;
+/// the time step: dt_F = 0.02 and 0.05 agree to 0.5 % (measured 1.33595 and 1.33551 with the shared pressure force; 1.31153 and 1.31149 with
+/// the normal one;
 /// the seed's full grid at level 2: 1.247). The negative control: the seed's blending
 /// u = (1 - phi) u + phi U with alpha = 0.1, a relaxation applied once per fluid step,
-/// moves the steady drag with dt_F by more than 5 % (measured 1.821 at 0.02 and 1.470 at
+/// moves the steady drag with dt_F by more than 5 % (measured 1.840 at 0.02 and 1.497 at
 /// 0.05).
 #[test]
 fn steady_drag_does_not_depend_on_the_fluid_time_step() {
@@ -530,11 +533,12 @@ fn steady_drag_does_not_depend_on_the_fluid_time_step() {
 /// and 12 cells). Steady state by backward-Euler steps of dt_F = 0.05 (U dt / h = 4.8 at
 /// level 4; 0.1 oscillates at level 2) to t = 2.5 (two flow-throughs); steadiness
 /// checked to 0.5 % (level 4 still drifts by 0.3 %), well below the changes compared.
-/// Measured: 1.312, 1.794, 1.726 (differences 0.48 and 0.068). The narrow channel
+/// Measured with the scene's shared pressure force: 1.336, 1.661, 1.674 (differences
+/// 0.325 and 0.014; with the normal force 1.312, 1.794, 1.726). The narrow channel
 /// (sphere diameter a quarter of the width) raises C_D by ~9 % over the seed's 2 x 2
-/// channel: there, level 4 gives 1.581 with this upwind scale, +2.8 % from
-/// Schiller-Naumann's 1.538, and 1.572 (+2.2 %) with the case's default (0.03 solved
-/// with 0.1) (15-16 min runs, so not tests; figures in docs/coupling.md).
+/// channel: there, level 4 gives 1.539 (+0.06 % from Schiller-Naumann's 1.538) with the
+/// case's defaults (shared force, upwind 0.03 solved with 0.1), 1.572 (+2.2 %) with the
+/// normal force (7-15 min runs, so not tests; figures in docs/coupling.md).
 #[test]
 fn drag_coefficient_converges_with_the_grid_level() {
     let cd: Vec<f64> = (2..=4)

@@ -99,3 +99,40 @@ fn a_non_finite_flow_stops_the_run() {
         "{failure}"
     );
 }
+
+/// `grainflow check` warns where the momentum multigrid slows down (`MULTIGRID_CFL`,
+/// U dt/h = 4, src/fluid.rs): the drag case at Re = 150 (U = 6) on level 3 (h = 1/24)
+/// at its dt_F of 0.05 (U dt/h = 7.2, where the run goes away in its second fluid step,
+/// docs/coupling.md) gets the warning with the step that keeps below it,
+/// 4 h / U = 2.778e-2 s; at dt_F = 0.02 (2.88) there is none. Exit 0 in both: the hard
+/// bound is the scheme's CFL limit.
+#[test]
+fn check_warns_above_the_multigrid_cfl_number() {
+    let case = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/drag-sphere.toml");
+    let mut args: Vec<String> = ["check", case.to_str().unwrap(), "--set", "fluid.level=3"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    for side in ["ymin", "xmin", "xmax", "zmin", "zmax"] {
+        args.push("--set".into());
+        args.push(format!("fluid.boundaries.{side}.velocity=[0.0,6.0,0.0]"));
+    }
+    let check = |dt: &str| {
+        let mut a = args.clone();
+        a.extend(["--set".to_string(), format!("fluid.dt={dt}")]);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let (code, stdout, stderr) = run_cli(&a);
+        assert_eq!(code, 0, "{stderr}");
+        stdout
+            .lines()
+            .find(|l| l.contains("momentum multigrid"))
+            .map(str::to_string)
+    };
+    let warning = check("0.05").expect("a warning at U dt/h = 7.2");
+    println!("{warning}");
+    assert!(
+        warning.starts_with("warning: U dt/h = 7.200") && warning.contains("dt <= 2.778e-2 s"),
+        "{warning}"
+    );
+    assert_eq!(check("0.02"), None);
+}

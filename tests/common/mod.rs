@@ -702,7 +702,7 @@ pub struct ArrayDrag {
 
 /// A fixed sphere of radius `a` = 1/8 at `centre` in the periodic unit box, `cells`^3
 /// coarse cells at `level`, nu = 1, driven along x by the body force 0.5 (Stokes flow: Re ~
-/// 0.02), with the coupling lines `coupling` (TOML), after `steps` backward-Euler steps of
+/// 0.02), with the coupling lines `coupling` and the further fluid lines `fluid` (TOML), after `steps` backward-Euler steps of
 /// 0.25 from rest: the drag factor of [`hasimoto_factor`] and the momentum balance. The
 /// flow approaches its steady state slowly, and not faster with longer steps (on 32^3
 /// the drag carries 81 % of the body force after 30 steps, 97 % after 60 and 99.4 % after
@@ -712,6 +712,7 @@ pub fn periodic_array_drag(
     level: u32,
     centre: [f64; 3],
     coupling: &str,
+    fluid: &str,
     steps: u64,
 ) -> ArrayDrag {
     let (a, nu, f) = (0.125, 1.0, 0.5);
@@ -727,7 +728,7 @@ pub fn periodic_array_drag(
     )
     .replace(
         "scheme = \"backward_euler\"",
-        &format!("scheme = \"backward_euler\"\nbody_force = [{f}, 0.0, 0.0]"),
+        &format!("scheme = \"backward_euler\"\nbody_force = [{f}, 0.0, 0.0]\n{fluid}"),
     );
     text.push_str(&format!("\n[coupling]\n{coupling}\n"));
     let mut sim = simulation(&text, "periodic-array.toml");
