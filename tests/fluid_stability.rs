@@ -125,7 +125,7 @@ fn check_warns_above_the_multigrid_cfl_number() {
         assert_eq!(code, 0, "{stderr}");
         stdout
             .lines()
-            .find(|l| l.contains("momentum multigrid"))
+            .find(|l| l.starts_with("warning: U dt/h"))
             .map(str::to_string)
     };
     let warning = check("0.05").expect("a warning at U dt/h = 7.2");
