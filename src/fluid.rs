@@ -10,6 +10,9 @@ use grainflow_fluid::{
 
 use grainflow_systems::fluid::{FluidFlow, FluidStats};
 
+use crate::obstacles::{obstacle_faces, obstacle_name, wall_thickness};
+use crate::outlets::{outlet_faces, outlet_name, outlet_velocity};
+
 use crate::scene::{
     Fluid, FluidBoundary, FluidPressureForce, FluidScheme, FluidViscous, InflowProfile, SceneError,
 };
@@ -99,7 +102,7 @@ pub fn cfl_number(f: &Fluid, grid: &Grid) -> f64 {
     boundary_speed(f) * f.dt.unwrap_or_default() / h
 }
 
-/// Largest speed prescribed on the boundary (walls, lids, inflow peaks).
+/// Largest speed prescribed on the boundary (walls, lids, inflow peaks, outlets).
 pub fn boundary_speed(f: &Fluid) -> f64 {
     f.boundaries
         .sides()
@@ -111,6 +114,7 @@ pub fn boundary_speed(f: &Fluid) -> f64 {
             }
             _ => 0.0,
         })
+        .chain(f.outlets.iter().map(|o| o.velocity.abs()))
         .fold(0.0, f64::max)
 }
 
@@ -188,6 +192,48 @@ pub fn check_report(f: &Fluid, grid: &Grid) -> String {
         );
     }
     let h = grid.h().into_iter().fold(f64::INFINITY, f64::min);
+    for (k, o) in f.obstacles.iter().enumerate() {
+        let held = obstacle_faces(std::slice::from_ref(o), grid).len();
+        let cells = wall_thickness(o) / h;
+        let _ = writeln!(
+            out,
+            "  obstacle {}: {held} faces held at rest, wall {cells:.2} cells thick",
+            obstacle_name(o, k)
+        );
+        if held == 0 {
+            let _ = writeln!(
+                out,
+                "warning: obstacle {} holds no face: it lies outside the box or between face centres",
+                obstacle_name(o, k)
+            );
+        } else if cells < 1.0 {
+            let _ = writeln!(
+                out,
+                "warning: obstacle {}'s wall is {cells:.2} cells thick: below one cell the flow can pass through it (raise fluid.level or thicken it)",
+                obstacle_name(o, k)
+            );
+        }
+    }
+    for (k, o) in f.outlets.iter().enumerate() {
+        let held = outlet_faces(o, grid).len();
+        let area = held as f64 * grid.face_area(o.side.direction_and_side().0);
+        let disc = std::f64::consts::PI * o.radius * o.radius;
+        let _ = writeln!(
+            out,
+            "  outlet {} on {}: {held} faces of area {area:.4e} for the disc's {disc:.4e}, flux {:.4e} (normal speed {:.4e} on the faces)",
+            outlet_name(o, k),
+            o.side.name(),
+            disc * o.velocity,
+            outlet_velocity(o, grid, held)[o.side.direction_and_side().0].abs()
+        );
+        if held == 0 {
+            let _ = writeln!(
+                out,
+                "warning: outlet {} holds no face: its disc misses the side's face centres",
+                outlet_name(o, k)
+            );
+        }
+    }
     let dt = f.dt.unwrap_or_default();
     let u = boundary_speed(f);
     let nu = f.viscosity.unwrap_or_default();
@@ -281,6 +327,13 @@ pub fn fluid_flow(f: &Fluid, grid: &Grid, gravity: [f64; 3]) -> FluidFlow {
             }
         }
     }
+    // after the sides: an outlet is a part of its side, and an obstacle reaching a side
+    // (the wall of a pipe at its mouth) is at rest there too
+    for o in &f.outlets {
+        let faces = outlet_faces(o, grid);
+        solver.hold_faces(&faces, outlet_velocity(o, grid, faces.len()));
+    }
+    solver.hold_faces(&obstacle_faces(&f.obstacles, grid), [0.0; 3]);
     let norm = |v: [f64; 3]| v.iter().map(|c| c * c).sum::<f64>().sqrt();
     let diagonal = norm([0, 1, 2].map(|d| hi[d] - lo[d]));
     let velocity_scale = boundary_speed(f)

@@ -8,6 +8,8 @@ pub mod fluid;
 pub mod lammps;
 pub mod memory;
 pub mod observables;
+pub mod obstacles;
+pub mod outlets;
 pub mod output;
 pub mod plot;
 pub mod run;

@@ -179,6 +179,78 @@ pub struct Fluid {
     pub body_force: [f64; 3],
     #[serde(default)]
     pub boundaries: FluidBoundaries,
+    /// Fixed solid bodies inside the flow (`[[fluid.obstacles]]`): the faces whose centres
+    /// lie in them are held at rest, as the box's walls (`src/obstacles.rs`).
+    #[serde(default)]
+    pub obstacles: Vec<FluidObstacle>,
+    /// Discs of a box side with a prescribed normal velocity (`[[fluid.outlets]]`, e.g. a
+    /// suction pipe's mouth; `src/outlets.rs`).
+    #[serde(default)]
+    pub outlets: Vec<FluidOutlet>,
+}
+
+/// A disc of a box side through which the flow leaves (or enters) at a prescribed speed.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluidOutlet {
+    #[serde(default)]
+    pub name: Option<String>,
+    pub side: FluidSide,
+    /// The disc's centre in the side's two coordinates (in x, y, z order).
+    pub center: [f64; 2],
+    pub radius: f64,
+    /// Outward normal speed, m/s (negative: inflow).
+    pub velocity: f64,
+}
+
+/// A side of the fluid box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FluidSide {
+    Xmin,
+    Xmax,
+    Ymin,
+    Ymax,
+    Zmin,
+    Zmax,
+}
+
+impl FluidSide {
+    /// The direction normal to the side and the side (0 lower, 1 upper).
+    pub fn direction_and_side(self) -> (usize, usize) {
+        let k = self as usize;
+        (k / 2, k % 2)
+    }
+
+    pub fn name(self) -> &'static str {
+        ["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"][self as usize]
+    }
+}
+
+/// A fixed solid body the flow goes around (`[[fluid.obstacles]]`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum FluidObstacle {
+    /// A cylindrical shell open at both ends: `inner_radius <= |x - axis| <= outer_radius`
+    /// for `bottom <= x_axis <= top`.
+    Pipe {
+        #[serde(default)]
+        name: Option<String>,
+        axis: Axis,
+        /// Axis position in the two other coordinates (in x, y, z order).
+        center: [f64; 2],
+        inner_radius: f64,
+        outer_radius: f64,
+        bottom: f64,
+        top: f64,
+    },
+    /// An axis-aligned solid box.
+    Box {
+        #[serde(default)]
+        name: Option<String>,
+        min: [f64; 3],
+        max: [f64; 3],
+    },
 }
 
 /// The `[coupling]` section: how particles and the flow act on each other.
@@ -873,6 +945,8 @@ fn validate_fluid_grid(f: &Fluid) -> Result<(), Invalid> {
             ("dt", f.dt.is_some()),
             ("momentum_rtol", f.momentum_rtol.is_some()),
             ("pressure_rtol", f.pressure_rtol.is_some()),
+            ("obstacles", !f.obstacles.is_empty()),
+            ("outlets", !f.outlets.is_empty()),
         ] {
             if given {
                 return Err((
@@ -977,6 +1051,92 @@ fn validate_fluid_grid(f: &Fluid) -> Result<(), Invalid> {
             if let FluidBoundary::Wall { velocity } | FluidBoundary::Inflow { velocity, .. } = side
             {
                 finite3(format!("fluid.boundaries.{name}.velocity"), *velocity)?;
+            }
+        }
+    }
+    for (k, o) in f.obstacles.iter().enumerate() {
+        validate_obstacle(o, &format!("fluid.obstacles[{k}]"))?;
+    }
+    for (k, o) in f.outlets.iter().enumerate() {
+        let at = |name: &str| format!("fluid.outlets[{k}].{name}");
+        finite2(at("center"), o.center)?;
+        positive(at("radius"), o.radius)?;
+        if !o.velocity.is_finite() {
+            return Err((
+                at("velocity"),
+                format!("expected a finite number, got {}", o.velocity),
+            ));
+        }
+        let (d, side) = o.side.direction_and_side();
+        if f.boundaries.sides()[d][side].1 == &FluidBoundary::Periodic {
+            return Err((
+                at("side"),
+                format!(
+                    "expected a wall, inflow or outflow side, got the periodic {}",
+                    o.side.name()
+                ),
+            ));
+        }
+    }
+    if !f.outlets.is_empty()
+        && !f
+            .boundaries
+            .sides()
+            .iter()
+            .flatten()
+            .any(|(_, b)| **b == FluidBoundary::Outflow)
+    {
+        return Err((
+            "fluid.outlets".into(),
+            "expected an `outflow` side somewhere in the box: the flow an outlet draws has to come from a side that lets it in".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Finite coordinates, positive sizes and ordered bounds of an obstacle.
+fn validate_obstacle(o: &FluidObstacle, at: &str) -> Result<(), Invalid> {
+    let f = |name: &str| format!("{at}.{name}");
+    match *o {
+        FluidObstacle::Pipe {
+            center,
+            inner_radius,
+            outer_radius,
+            bottom,
+            top,
+            ..
+        } => {
+            finite2(f("center"), center)?;
+            positive(f("inner_radius"), inner_radius)?;
+            positive(f("outer_radius"), outer_radius)?;
+            if outer_radius <= inner_radius {
+                return Err((
+                    f("outer_radius"),
+                    format!(
+                        "expected outer_radius > inner_radius = {inner_radius}, got {outer_radius}"
+                    ),
+                ));
+            }
+            for (name, v) in [("bottom", bottom), ("top", top)] {
+                if !v.is_finite() {
+                    return Err((f(name), format!("expected a finite number, got {v}")));
+                }
+            }
+            if top <= bottom {
+                return Err((
+                    f("top"),
+                    format!("expected top > bottom = {bottom}, got {top}"),
+                ));
+            }
+        }
+        FluidObstacle::Box { min, max, .. } => {
+            finite3(f("min"), min)?;
+            finite3(f("max"), max)?;
+            if (0..3).any(|d| max[d] <= min[d]) {
+                return Err((
+                    f("max"),
+                    format!("expected max > min in every coordinate, got min {min:?} max {max:?}"),
+                ));
             }
         }
     }

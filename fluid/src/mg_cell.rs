@@ -126,6 +126,12 @@ impl PressureMg {
         &self.levels.last().unwrap().op
     }
 
+    /// Removes the couplings of the held faces `faces` from the finest level
+    /// ([`CellOperator::hold_faces`]); the coarser levels keep theirs (they only correct).
+    pub fn hold_faces(&mut self, faces: &[u32]) {
+        self.levels.last_mut().unwrap().op.hold_faces(faces);
+    }
+
     /// Solves `P x = b` from the initial `x` until the residual drops by `rtol` (relative
     /// to the initial residual) or `max_cycles` V-cycles were done.
     pub fn solve(&mut self, x: &mut [f64], b: &[f64], rtol: f64, max_cycles: usize) -> MgReport {

@@ -546,6 +546,24 @@ impl NavierStokes {
         );
     }
 
+    /// Holds the faces `faces` at the velocity `v` for good, as the box's walls: they join
+    /// [`NavierStokes::box_mask`] (the coupling leaves them alone, the projection does not
+    /// correct them) and the mask of prescribed faces (fixed solid bodies inside the flow
+    /// at `v = 0`, an outlet on part of a side), and their couplings leave the pressure
+    /// Schur complement ([`PressureMg::hold_faces`]), so the projection makes the cells
+    /// next to them divergence-free too.
+    pub fn hold_faces(&mut self, faces: &[u32], v: [f64; 3]) {
+        self.pmg.hold_faces(faces);
+        for &f in faces {
+            let f = f as usize;
+            self.box_mask[f] = true;
+            for (u, v) in self.u.iter_mut().zip(v) {
+                u[f] = v;
+            }
+        }
+        self.move_mask(&[], faces);
+    }
+
     /// The faces whose velocity feels an implicit reaction towards a target through the
     /// following steps (see [`PenaltyFace`]), replacing the earlier list; faces of the
     /// mask ignore it.

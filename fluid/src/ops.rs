@@ -1192,6 +1192,43 @@ pub struct CellOperator {
     /// Diagonal factor of the coupling across a box side: 0 wall, 2 do-nothing (lumped
     /// mass `V/6` instead of `V/3`); unused on periodic sides.
     bfac: [[f64; 2]; 3],
+    /// The couplings removed by faces held at a prescribed velocity (none: empty).
+    held: HeldRows,
+}
+
+/// The part of `P` that faces held at a prescribed velocity remove
+/// ([`CellOperator::hold_faces`]): the projection does not correct them, so they carry no
+/// coupling between their cells. For each cell next to one, the diagonal to subtract and
+/// the neighbours whose coupling goes.
+#[derive(Debug, Clone, Default)]
+struct HeldRows {
+    /// Per cell the index into `rows`, `u32::MAX` for none (empty when nothing is held).
+    index: Vec<u32>,
+    rows: Vec<(f64, Vec<(u32, f64)>)>,
+}
+
+impl HeldRows {
+    /// The row of cell `c`, made empty first if it has none.
+    fn row_of(&mut self, c: usize) -> &mut (f64, Vec<(u32, f64)>) {
+        if self.index[c] == u32::MAX {
+            self.index[c] = self.rows.len() as u32;
+            self.rows.push((0.0, Vec::new()));
+        }
+        &mut self.rows[self.index[c] as usize]
+    }
+
+    /// `(diag, s)` of cell `c` with the held couplings removed.
+    #[inline]
+    fn correct(&self, c: usize, diag: f64, s: f64, x: &[f64]) -> (f64, f64) {
+        match self.index.get(c) {
+            Some(&k) if k != u32::MAX => {
+                let (dd, ref nb) = self.rows[k as usize];
+                let ds: f64 = nb.iter().map(|&(j, cj)| cj * x[j as usize]).sum();
+                (diag - dd, s - ds)
+            }
+            _ => (diag, s),
+        }
+    }
 }
 
 impl CellOperator {
@@ -1209,6 +1246,40 @@ impl CellOperator {
             layout: grid.layout(),
             coef,
             bfac,
+            held: HeldRows::default(),
+        }
+    }
+
+    /// Removes from `P` the couplings of the faces `faces` (indices of a face field), held
+    /// at a prescribed velocity by the flow solver and not corrected by its projection:
+    /// across an interior face the coupling of its two cells, across a do-nothing side its
+    /// share of the cell's diagonal (wall and inflow sides have none). A cell all of whose
+    /// faces are held then has a zero row, which the smoother leaves alone.
+    pub fn hold_faces(&mut self, faces: &[u32]) {
+        let lay = self.layout;
+        if self.held.index.is_empty() {
+            self.held.index = vec![u32::MAX; lay.num_cells()];
+        }
+        for &f in faces {
+            let (a, fc) = lay.face_of(f as usize);
+            let coef = self.coef[a];
+            match lay.face_cells(a, fc) {
+                [Some(m), Some(p)] => {
+                    let (m, p) = (lay.cell(m), lay.cell(p));
+                    for (c, other) in [(m, p), (p, m)] {
+                        let row = self.held.row_of(c);
+                        row.0 += coef;
+                        row.1.push((other as u32, coef));
+                    }
+                }
+                [Some(c), None] | [None, Some(c)] => {
+                    let dd = self.bfac[a][usize::from(fc[a] > 0)] * coef;
+                    if dd != 0.0 {
+                        self.held.row_of(lay.cell(c)).0 += dd;
+                    }
+                }
+                [None, None] => {}
+            }
         }
     }
 
@@ -1288,6 +1359,7 @@ impl CellOperator {
                     None => diag += self.bfac[0][side] * cx,
                 }
             }
+            let (diag, s) = self.held.correct(base + i, diag, s, x);
             g(i, diag, s);
         }
     }
