@@ -182,7 +182,7 @@ fn axis_line(axis: Axis, center: [f64; 2]) -> ([f64; 3], [f64; 3]) {
     let mut origin = [0.0; 3];
     let mut dir = [0.0; 3];
     dir[a] = 1.0;
-    let others: Vec<usize> = (0..3).filter(|&d| d != a).collect();
+    let others = axis.others();
     origin[others[0]] = center[0];
     origin[others[1]] = center[1];
     (origin, dir)

@@ -22,12 +22,7 @@ pub fn obstacle_contains(o: &FluidObstacle, x: [f64; 3]) -> bool {
             ..
         } => {
             let a = axis.index();
-            // the two other coordinates in x, y, z order, as `center` gives them
-            let (s, t) = match a {
-                0 => (1, 2),
-                1 => (0, 2),
-                _ => (0, 1),
-            };
+            let [s, t] = axis.others();
             let r2 = (x[s] - center[0]).powi(2) + (x[t] - center[1]).powi(2);
             (bottom..=top).contains(&x[a])
                 && r2 >= inner_radius * inner_radius

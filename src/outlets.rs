@@ -8,16 +8,12 @@
 //! come from.
 use grainflow_fluid::Grid;
 
-use crate::scene::FluidOutlet;
+use crate::scene::{other_directions, FluidOutlet};
 
 /// The faces of `o`'s side whose centres lie within its radius of its centre, ascending.
 pub fn outlet_faces(o: &FluidOutlet, grid: &Grid) -> Vec<u32> {
     let (d, side) = o.side.direction_and_side();
-    let (s, t) = match d {
-        0 => (1, 2),
-        1 => (0, 2),
-        _ => (0, 1),
-    };
+    let [s, t] = other_directions(d);
     let lay = grid.layout();
     let n = grid.n();
     let mut faces = Vec::new();

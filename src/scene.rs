@@ -602,6 +602,20 @@ impl Axis {
     pub fn index(self) -> usize {
         self as usize
     }
+
+    /// The two other directions, in x, y, z order (the order of a `center`).
+    pub fn others(self) -> [usize; 2] {
+        other_directions(self.index())
+    }
+}
+
+/// The two directions other than `d`, in x, y, z order.
+pub fn other_directions(d: usize) -> [usize; 2] {
+    match d {
+        0 => [1, 2],
+        1 => [0, 2],
+        _ => [0, 1],
+    }
 }
 
 #[derive(Debug, Clone, Deserialize)]

@@ -645,3 +645,86 @@ fn scenes_beyond_the_machines_memory_exit_2_naming_the_source() {
         );
     }
 }
+
+/// `[[fluid.obstacles]]` and `[[fluid.outlets]]` (src/scene.rs, `validate_obstacle` and the
+/// outlet checks): finite coordinates, positive sizes, ordered bounds, only with a grid.
+#[test]
+fn bad_obstacles_and_outlets_exit_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let pipe = "[[fluid.obstacles]]\ntype = \"pipe\"\naxis = \"z\"\ncenter = [0.0, 0.0]\n\
+                inner_radius = 0.01\nouter_radius = 0.02\nbottom = 0.02\ntop = 0.08";
+    let block =
+        "[[fluid.obstacles]]\ntype = \"box\"\nmin = [-0.05, -0.05, 0.0]\nmax = [0.05, 0.05, 0.01]";
+    let outlet = "[fluid.boundaries]\nzmax = { type = \"outflow\" }\n\n[[fluid.outlets]]\n\
+                  side = \"zmax\"\ncenter = [0.0, 0.0]\nradius = 0.02\nvelocity = 0.1";
+    for good in [pipe, block, outlet] {
+        let path = write_scene(d, "good.toml", &in_fluid(good));
+        let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
+        assert_eq!(code, 0, "{good}\n{stderr}");
+    }
+    for (file, text, field, expected) in [
+        (
+            "inner",
+            pipe.replace("inner_radius = 0.01", "inner_radius = -0.01"),
+            "fluid.obstacles[0].inner_radius",
+            "> 0",
+        ),
+        (
+            "outer",
+            pipe.replace("outer_radius = 0.02", "outer_radius = 0.01"),
+            "fluid.obstacles[0].outer_radius",
+            "outer_radius > inner_radius",
+        ),
+        (
+            "top",
+            pipe.replace("top = 0.08", "top = 0.01"),
+            "fluid.obstacles[0].top",
+            "top > bottom",
+        ),
+        (
+            "centre",
+            pipe.replace("center = [0.0, 0.0]", "center = [nan, 0.0]"),
+            "fluid.obstacles[0].center",
+            "finite",
+        ),
+        (
+            "box",
+            block.replace("max = [0.05, 0.05, 0.01]", "max = [0.05, 0.05, -0.01]"),
+            "fluid.obstacles[0].max",
+            "max > min",
+        ),
+        (
+            "radius",
+            outlet.replace("radius = 0.02", "radius = 0.0"),
+            "fluid.outlets[0].radius",
+            "> 0",
+        ),
+        (
+            "speed",
+            outlet.replace("velocity = 0.1", "velocity = inf"),
+            "fluid.outlets[0].velocity",
+            "finite",
+        ),
+        (
+            "closed",
+            outlet.replace("zmax = { type = \"outflow\" }", ""),
+            "fluid.outlets",
+            "outflow",
+        ),
+    ] {
+        let path = write_scene(d, &format!("{file}.toml"), &in_fluid(&text));
+        let message = rejected(d, &path, &[], field);
+        assert!(message.contains(expected), "{file}: {message}");
+    }
+    // Without a grid an obstacle or outlet would be silently ignored.
+    for (file, text, field) in [
+        ("pipe", pipe, "fluid.obstacles"),
+        ("outlet", outlet, "fluid.outlets"),
+    ] {
+        let text = format!("{GOOD}\n[fluid]\ndensity = 1000.0\n{text}\n");
+        let path = write_scene(d, &format!("{file}_no_grid.toml"), &text);
+        let message = rejected(d, &path, &[], field);
+        assert!(message.contains("without a grid"), "{message}");
+    }
+}

@@ -553,6 +553,9 @@ impl NavierStokes {
     /// Schur complement ([`PressureMg::hold_faces`]), so the projection makes the cells
     /// next to them divergence-free too.
     pub fn hold_faces(&mut self, faces: &[u32], v: [f64; 3]) {
+        if faces.is_empty() {
+            return;
+        }
         self.pmg.hold_faces(faces);
         for &f in faces {
             let f = f as usize;

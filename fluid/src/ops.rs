@@ -1256,6 +1256,9 @@ impl CellOperator {
     /// share of the cell's diagonal (wall and inflow sides have none). A cell all of whose
     /// faces are held then has a zero row, which the smoother leaves alone.
     pub fn hold_faces(&mut self, faces: &[u32]) {
+        if faces.is_empty() {
+            return;
+        }
         let lay = self.layout;
         if self.held.index.is_empty() {
             self.held.index = vec![u32::MAX; lay.num_cells()];
@@ -1344,6 +1347,7 @@ impl CellOperator {
         let rows = &rows[..cnt];
         let base = nx * (j + ny * k);
         let cx = self.coef[0];
+        let held = (!self.held.index.is_empty()).then_some(&self.held);
         for i in 0..nx {
             let mut diag = diag_base;
             let mut s = 0.0;
@@ -1359,7 +1363,10 @@ impl CellOperator {
                     None => diag += self.bfac[0][side] * cx,
                 }
             }
-            let (diag, s) = self.held.correct(base + i, diag, s, x);
+            let (diag, s) = match held {
+                Some(h) => h.correct(base + i, diag, s, x),
+                None => (diag, s),
+            };
             g(i, diag, s);
         }
     }
