@@ -255,6 +255,36 @@ pub fn walls(scene: &Scene, material_index: &dyn Fn(&str) -> u16) -> Walls {
                         h0: bottom.unwrap_or(-FAR),
                         r1: *radius,
                         h1: top.unwrap_or(FAR),
+                        thickness: 0.0,
+                    },
+                    material: material_index(material),
+                    remove_at: None,
+                    active: true,
+                });
+            }
+            WallSpec::Pipe {
+                name,
+                material,
+                axis,
+                center,
+                inner_radius,
+                outer_radius,
+                bottom,
+                top,
+                ..
+            } => {
+                let (origin, dir) = axis_line(*axis, *center);
+                let radius = 0.5 * (inner_radius + outer_radius);
+                list.push(Wall {
+                    name: name.clone().unwrap_or(default_name),
+                    shape: WallShape::Revolution {
+                        origin,
+                        axis: dir,
+                        r0: radius,
+                        h0: *bottom,
+                        r1: radius,
+                        h1: *top,
+                        thickness: outer_radius - inner_radius,
                     },
                     material: material_index(material),
                     remove_at: None,
@@ -281,6 +311,7 @@ pub fn walls(scene: &Scene, material_index: &dyn Fn(&str) -> u16) -> Walls {
                         h0: *bottom,
                         r1: *radius_top,
                         h1: *top,
+                        thickness: 0.0,
                     },
                     material: material_index(material),
                     remove_at: None,
@@ -561,6 +592,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
                     name: sink.name.clone().unwrap_or_else(|| format!("sink {k}")),
                     point: sink.point,
                     normal: sink.normal.map(|x| x / len),
+                    radius: sink.radius.unwrap_or(f64::INFINITY),
                 }
             })
             .collect();

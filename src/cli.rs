@@ -66,6 +66,10 @@ pub struct RunArgs {
     /// after this much wall-clock time (with a unit: 90s, 30min, 2h); may be repeated.
     #[arg(long = "checkpoint-every", value_name = "T")]
     pub checkpoint_every: Vec<String>,
+    /// At the end, write the particles to FILE as a LAMMPS `atom_style sphere` data file
+    /// (a prepared bed, read back by a scene's `[[lammps]]` source).
+    #[arg(long = "write-data", value_name = "FILE")]
+    pub write_data: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -84,6 +88,10 @@ pub struct ResumeArgs {
     /// Checkpoint interval, as for `run`.
     #[arg(long = "checkpoint-every", value_name = "T")]
     pub checkpoint_every: Vec<String>,
+    /// At the end, write the particles to FILE as a LAMMPS `atom_style sphere` data file
+    /// (a prepared bed, read back by a scene's `[[lammps]]` source).
+    #[arg(long = "write-data", value_name = "FILE")]
+    pub write_data: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -471,7 +479,15 @@ fn run(args: RunArgs) -> ExitCode {
             interrupt: Some(install_signal_handlers()),
             ..Default::default()
         };
-        execute(sim, target, threads, &out_dir, &args.scene, control)
+        execute(
+            sim,
+            target,
+            threads,
+            &out_dir,
+            &args.scene,
+            control,
+            args.write_data.as_deref(),
+        )
     })
 }
 
@@ -539,7 +555,15 @@ fn resume(args: ResumeArgs) -> ExitCode {
             interrupt: Some(install_signal_handlers()),
             ..Default::default()
         };
-        execute(sim, target, threads, &args.dir, &file, control)
+        execute(
+            sim,
+            target,
+            threads,
+            &args.dir,
+            &file,
+            control,
+            args.write_data.as_deref(),
+        )
     })
 }
 
@@ -656,8 +680,9 @@ fn install_signal_handlers() -> &'static AtomicI32 {
     &SIGNAL_RECEIVED
 }
 
-/// Run `sim` for `steps` under `control`, write `summary.json` into `out_dir` and report;
-/// `label` names the scene (or checkpoint) in messages.
+/// Run `sim` for `steps` under `control`, write `summary.json` into `out_dir` (and the
+/// particles into the data file `write_data`) and report; `label` names the scene (or
+/// checkpoint) in messages.
 fn execute(
     mut sim: Simulation,
     steps: u64,
@@ -665,6 +690,7 @@ fn execute(
     out_dir: &Path,
     label: &Path,
     mut control: RunControl,
+    write_data: Option<&Path>,
 ) -> ExitCode {
     {
         let dt = sim.scene.simulation.dt;
@@ -690,6 +716,22 @@ fn execute(
         }
         if let Some(sinks) = sim.world.get_resource::<grainflow_components::Sinks>() {
             if let Err(e) = crate::sinks::write_csv(sinks, out_dir) {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+        }
+        if let Some(file) = write_data {
+            let written = match (
+                sim.world.get_resource::<grainflow_components::Particles>(),
+                sim.world.get_resource::<grainflow_components::Materials>(),
+            ) {
+                (Some(p), Some(m)) => crate::lammps::write_data(file, p, m),
+                _ => Err(format!(
+                    "cannot write {}: the scene has no particles",
+                    file.display()
+                )),
+            };
+            if let Err(e) = written {
                 eprintln!("error: {e}");
                 return ExitCode::from(1);
             }

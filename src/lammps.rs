@@ -1,8 +1,13 @@
-//! Reader for LAMMPS `atom_style sphere` data files (as written by `write_data`):
-//! `Atoms # sphere` lines `id type diameter density x y z [ix iy iz]` and `Velocities`
-//! lines `id vx vy vz wx wy wz`. Lets users bring their LAMMPS/LIGGGHTS packings over.
+//! Reader and writer of LAMMPS `atom_style sphere` data files (as written by LAMMPS'
+//! `write_data`): `Atoms # sphere` lines `id type diameter density x y z [ix iy iz]` and
+//! `Velocities` lines `id vx vy vz wx wy wz`. Lets users bring their LAMMPS/LIGGGHTS
+//! packings over, and a prepared bed (`grainflow run --write-data`) be reused by a scene's
+//! `[[lammps]]` source.
 use std::collections::HashMap;
+use std::fmt::Write as _;
 use std::path::Path;
+
+use grainflow_components::{Materials, Particles};
 
 /// One atom of a data file.
 #[derive(Debug, Clone, PartialEq)]
@@ -102,4 +107,67 @@ pub fn read_data(path: &Path) -> Result<Vec<LammpsAtom>, String> {
     }
     atoms.sort_by_key(|a| a.id);
     Ok(atoms)
+}
+
+/// Write the particles as a data file: LAMMPS atom type = material index + 1, density of
+/// the material, ids in ascending order (id + 1: LAMMPS ids start at 1), box = the
+/// particles' bounding box grown by the largest radius. Numbers in `{:e}` (shortest
+/// round-trip form): reading the file back gives the same positions and velocities bit
+/// for bit.
+pub fn write_data(path: &Path, particles: &Particles, materials: &Materials) -> Result<(), String> {
+    let n = particles.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&i| particles.id[i]);
+    let [x, y, z] = &particles.position;
+    let r_max = particles.radius.iter().copied().fold(0.0, f64::max);
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for i in 0..n {
+        for (d, c) in [x[i], y[i], z[i]].into_iter().enumerate() {
+            lo[d] = lo[d].min(c - r_max);
+            hi[d] = hi[d].max(c + r_max);
+        }
+    }
+    if n == 0 {
+        (lo, hi) = ([0.0; 3], [0.0; 3]);
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "LAMMPS data file written by grainflow\n");
+    let _ = writeln!(out, "{n} atoms");
+    let _ = writeln!(out, "{} atom types\n", materials.list.len().max(1));
+    for (d, axis) in ["x", "y", "z"].iter().enumerate() {
+        let _ = writeln!(out, "{:e} {:e} {axis}lo {axis}hi", lo[d], hi[d]);
+    }
+    let _ = writeln!(out, "\nAtoms # sphere\n");
+    for &i in &order {
+        let m = particles.material[i] as usize;
+        let _ = writeln!(
+            out,
+            "{} {} {:e} {:e} {:e} {:e} {:e}",
+            particles.id[i] as u64 + 1,
+            m + 1,
+            2.0 * particles.radius[i],
+            materials.list[m].density,
+            x[i],
+            y[i],
+            z[i]
+        );
+    }
+    let _ = writeln!(out, "\nVelocities\n");
+    let [vx, vy, vz] = &particles.velocity;
+    let [wx, wy, wz] = &particles.angular_velocity;
+    for &i in &order {
+        let _ = writeln!(
+            out,
+            "{} {:e} {:e} {:e} {:e} {:e} {:e}",
+            particles.id[i] as u64 + 1,
+            vx[i],
+            vy[i],
+            vz[i],
+            wx[i],
+            wy[i],
+            wz[i]
+        );
+    }
+    std::fs::write(path, out).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }

@@ -661,6 +661,52 @@ pub enum WallSpec {
         bottom: f64,
         top: f64,
     },
+    /// A solid cylindrical shell open at both ends (a suction pipe): particles meet its
+    /// bore, its outside and its rims (rounded, of radius half the wall thickness). With
+    /// `fluid_obstacle = true` it is also an obstacle of the flow, the
+    /// `[[fluid.obstacles]]` pipe of the same geometry (with square rims).
+    Pipe {
+        #[serde(default)]
+        name: Option<String>,
+        material: String,
+        axis: Axis,
+        /// Axis position in the two other coordinates (in x, y, z order).
+        center: [f64; 2],
+        inner_radius: f64,
+        outer_radius: f64,
+        bottom: f64,
+        top: f64,
+        #[serde(default)]
+        fluid_obstacle: bool,
+    },
+}
+
+impl WallSpec {
+    /// The obstacle of the flow of the same geometry, for a pipe (named as the wall, or
+    /// `walls[k]`).
+    pub fn as_obstacle(&self, k: usize) -> Option<FluidObstacle> {
+        match *self {
+            WallSpec::Pipe {
+                ref name,
+                axis,
+                center,
+                inner_radius,
+                outer_radius,
+                bottom,
+                top,
+                ..
+            } => Some(FluidObstacle::Pipe {
+                name: Some(name.clone().unwrap_or_else(|| format!("walls[{k}]"))),
+                axis,
+                center,
+                inner_radius,
+                outer_radius,
+                bottom,
+                top,
+            }),
+            _ => None,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -726,7 +772,8 @@ pub enum RegionSpec {
 }
 
 /// A particle sink: every particle whose centre is on the far side of the plane through
-/// `point` from `normal` (which points into the kept space) is removed.
+/// `point` from `normal` (which points into the kept space) is removed; with a `radius`,
+/// only within that distance of the line through `point` along `normal` (a pipe's bore).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SinkSpec {
@@ -734,6 +781,8 @@ pub struct SinkSpec {
     pub name: Option<String>,
     pub point: [f64; 3],
     pub normal: [f64; 3],
+    #[serde(default)]
+    pub radius: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -818,6 +867,31 @@ pub fn parse(text: &str, path: &Path, overrides: &[String]) -> Result<Scene, Sce
         }
     }
     validate(&scene).map_err(|(field, m)| err(&field, m))?;
+    // Pipe walls that are also obstacles of the flow join `fluid.obstacles`.
+    let shared: Vec<(usize, FluidObstacle)> = scene
+        .walls
+        .iter()
+        .enumerate()
+        .filter(|(_, w)| {
+            matches!(
+                w,
+                WallSpec::Pipe {
+                    fluid_obstacle: true,
+                    ..
+                }
+            )
+        })
+        .filter_map(|(k, w)| w.as_obstacle(k).map(|o| (k, o)))
+        .collect();
+    if let Some((k, _)) = shared.first() {
+        let Some(f) = scene.fluid.as_mut() else {
+            return Err(err(
+                &format!("walls[{k}].fluid_obstacle"),
+                "expected a [fluid] section: the wall is an obstacle of the flow".into(),
+            ));
+        };
+        f.obstacles.extend(shared.into_iter().map(|(_, o)| o));
+    }
     if let Some(dt_f) = scene
         .fluid
         .as_ref()
@@ -1412,6 +1486,12 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                     }
                 }
             }
+            WallSpec::Pipe { material, .. } => {
+                known_material(s, f("material"), material)?;
+                if let Some(o) = w.as_obstacle(k) {
+                    validate_obstacle(&o, &format!("walls[{k}]"))?;
+                }
+            }
             WallSpec::Cone {
                 material,
                 center,
@@ -1490,6 +1570,9 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
         finite3(f("normal"), sink.normal)?;
         if sink.normal.iter().map(|x| x * x).sum::<f64>() == 0.0 {
             return Err((f("normal"), "expected a non-zero vector".into()));
+        }
+        if let Some(r) = sink.radius {
+            positive(f("radius"), r)?;
         }
     }
     for (k, i) in s.inflows.iter().enumerate() {

@@ -1,6 +1,8 @@
 //! Wall geometry and wall events: the distance and normal from a sphere centre to a plane,
-//! a cylinder and a cone (closest point on the meridian segment, checked against the
-//! geometry worked out by hand), and the removal of the outlet plate at its time.
+//! a cylinder, a cone and a pipe (closest point on the meridian segment, less half the
+//! wall thickness for the pipe's shell, checked against the geometry worked out by hand),
+//! the removal of the outlet plate at its time, and a pipe wall that is also the flow's
+//! obstacle.
 use std::f64::consts::SQRT_2;
 
 use grainflow_components::WallShape;
@@ -36,6 +38,7 @@ fn cylinder_distance_is_radial_inside_and_past_the_ends() {
         h0: 0.0,
         r1: 0.5,
         h1: 2.0,
+        thickness: 0.0,
     };
     let (d, n) = wall_distance(&cyl, [1.3, 2.0, 1.0]);
     assert!((d - 0.2).abs() < 1e-14, "{d}");
@@ -48,6 +51,40 @@ fn cylinder_distance_is_radial_inside_and_past_the_ends() {
     assert_eq!(wall_contains(&cyl, [1.6, 2.0, 3.0]), None);
 }
 
+/// A pipe of inner radius 2, outer 2.5 (mid-surface 2.25, thickness 0.5) from z = 1 to 5:
+/// in the bore the distance is 2 - rho with the normal towards the axis, outside rho - 2.5
+/// outward, below the mouth the distance to the rounded rim (a half circle of radius 0.25
+/// about (2.25, 1)), and the solid itself is outside the particle side.
+#[test]
+fn pipe_distance_is_to_its_bore_its_outside_and_its_rounded_rim() {
+    let pipe = WallShape::Revolution {
+        origin: [0.0; 3],
+        axis: [0.0, 0.0, 1.0],
+        r0: 2.25,
+        h0: 1.0,
+        r1: 2.25,
+        h1: 5.0,
+        thickness: 0.5,
+    };
+    let (d, n) = wall_distance(&pipe, [1.5, 0.0, 3.0]);
+    assert!((d - 0.5).abs() < 1e-14, "bore: {d}");
+    assert!(close(n, [-1.0, 0.0, 0.0], 1e-14), "{n:?}");
+    let (d, n) = wall_distance(&pipe, [0.0, 3.0, 3.0]);
+    assert!((d - 0.5).abs() < 1e-14, "outside: {d}");
+    assert!(close(n, [0.0, 1.0, 0.0], 1e-14), "{n:?}");
+    // Straight below the mid-surface: 0.6 below the rim's centre, 0.35 below its surface.
+    let (d, n) = wall_distance(&pipe, [2.25, 0.0, 0.4]);
+    assert!((d - 0.35).abs() < 1e-14, "rim: {d}");
+    assert!(close(n, [0.0, 0.0, -1.0], 1e-14), "{n:?}");
+    // Inside the shell: a negative distance, and not on the particle side.
+    let (d, _) = wall_distance(&pipe, [2.3, 0.0, 3.0]);
+    assert!((d + 0.2).abs() < 1e-14, "in the wall: {d}");
+    assert_eq!(wall_contains(&pipe, [2.3, 0.0, 3.0]), Some(false));
+    // Both sides of the shell hold particles: the wall does not decide there.
+    assert_eq!(wall_contains(&pipe, [1.0, 0.0, 3.0]), None);
+    assert_eq!(wall_contains(&pipe, [3.0, 0.0, 3.0]), None);
+}
+
 #[test]
 fn cone_distance_is_perpendicular_to_the_45_degree_meridian() {
     // The benchmark hopper cone: radius 0.2 at z = 0 to 1.25 at z = 1.05 (45 degrees).
@@ -58,6 +95,7 @@ fn cone_distance_is_perpendicular_to_the_45_degree_meridian() {
         h0: 0.0,
         r1: 1.25,
         h1: 1.05,
+        thickness: 0.0,
     };
     // A point on the axis-plane y = 0 at (x, z) = (0.5, 0.5): wall radius there is 0.7, so
     // the point is 0.2 inside horizontally and 0.2 / sqrt(2) from the 45-degree line.
@@ -89,6 +127,7 @@ fn wall_geometry_in_lanes_equals_one_point_at_a_time() {
             h0: 0.0,
             r1: 1.25,
             h1: 1.05,
+            thickness: 0.0,
         },
         WallShape::Revolution {
             origin: [1.0, 2.0, -1.0],
@@ -97,6 +136,16 @@ fn wall_geometry_in_lanes_equals_one_point_at_a_time() {
             h0: -1.0e9,
             r1: 0.5,
             h1: 1.0e9,
+            thickness: 0.0,
+        },
+        WallShape::Revolution {
+            origin: [0.5, 0.5, 0.0],
+            axis: [0.0, 0.0, 1.0],
+            r0: 0.3,
+            h0: 0.2,
+            r1: 0.3,
+            h1: 0.9,
+            thickness: 0.1,
         },
     ];
     // A fixed pseudo-random sequence (Weyl), plus the special points.
@@ -123,7 +172,7 @@ fn wall_geometry_in_lanes_equals_one_point_at_a_time() {
             }
         }
     }
-    assert_eq!(checked, 3 * 69);
+    assert_eq!(checked, 4 * 69);
 }
 
 #[test]
@@ -164,5 +213,71 @@ position = [0.0, 0.0, 0.0051]
     assert!(
         (z - expected).abs() < 2e-4,
         "free fall after the plate is gone: z = {z}, expected {expected}"
+    );
+}
+
+/// A `type = "pipe"` wall with `fluid_obstacle = true` is the flow's obstacle too: the
+/// check lists it among the obstacles with the faces it holds, and a scene without a
+/// `[fluid]` section is refused naming the field.
+#[test]
+fn a_pipe_wall_can_be_the_flows_obstacle_too() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scene = |fluid: &str| {
+        format!(
+            r#"
+[simulation]
+dt = 1.0e-5
+end_time = 0.1
+gravity = [0.0, 0.0, -9.81]
+{fluid}
+[[materials]]
+name = "steel"
+density = 7800.0
+youngs_modulus = 2.0e8
+poisson_ratio = 0.3
+restitution = 0.3
+[[walls]]
+type = "pipe"
+name = "suction pipe"
+material = "steel"
+axis = "z"
+center = [0.5, 0.5]
+inner_radius = 0.2
+outer_radius = 0.3
+bottom = 0.4
+top = 1.0
+fluid_obstacle = true
+[[spheres]]
+material = "steel"
+radius = 0.02
+position = [0.5, 0.5, 0.2]
+"#
+        )
+    };
+    let fluid = r#"
+[fluid]
+density = 1000.0
+viscosity = 1.0e-3
+min = [0.0, 0.0, 0.0]
+max = [1.0, 1.0, 1.0]
+cells = [4, 4, 4]
+level = 3
+dt = 1.0e-3
+"#;
+    let path = common::write_scene(dir.path(), "pipe.toml", &scene(fluid));
+    let (code, stdout, stderr) = common::run_cli(&["check", path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stdout}\n{stderr}");
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("obstacle suction pipe:"))
+        .unwrap_or_else(|| panic!("no obstacle line in\n{stdout}"));
+    // h = 1/16: the shell 0.1 thick is 1.6 cells.
+    assert!(line.contains("wall 1.60 cells thick"), "{line}");
+    let path = common::write_scene(dir.path(), "dry.toml", &scene(""));
+    let (code, _, stderr) = common::run_cli(&["check", path.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("walls[0].fluid_obstacle") && stderr.contains("[fluid]"),
+        "{stderr}"
     );
 }

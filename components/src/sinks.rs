@@ -2,23 +2,28 @@ use bevy_ecs::prelude::Resource;
 
 /// A plane through which particles leave the scene (a deletion boundary, as MercuryDPM's
 /// `DeletionBoundary` or LIGGGHTS' `delete_atoms region`): a particle whose centre lies on
-/// the far side of the plane from its `normal` is removed.
+/// the far side of the plane from its `normal` is removed; with a finite `radius`, only
+/// within that distance of the line through `point` along `normal` (the half-infinite
+/// cylinder of a suction pipe's upper part).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sink {
     pub name: String,
     pub point: [f64; 3],
     /// Unit normal, pointing into the part of space where particles stay.
     pub normal: [f64; 3],
+    /// Radius of the removing region about the normal line (infinite: the half space).
+    pub radius: f64,
 }
 
 impl Sink {
     /// Whether a particle centred at `x` has left through this sink.
     #[inline]
     pub fn passed(&self, x: [f64; 3]) -> bool {
-        (0..3)
-            .map(|d| (x[d] - self.point[d]) * self.normal[d])
-            .sum::<f64>()
-            < 0.0
+        let q = [0, 1, 2].map(|d| x[d] - self.point[d]);
+        let s = (0..3).map(|d| q[d] * self.normal[d]).sum::<f64>();
+        s < 0.0
+            && (self.radius == f64::INFINITY
+                || q.iter().map(|c| c * c).sum::<f64>() - s * s < self.radius * self.radius)
     }
 }
 

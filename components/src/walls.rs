@@ -9,7 +9,9 @@ pub enum WallShape {
     /// Lateral surface of revolution about the axis through `origin` along the unit vector
     /// `axis`, whose meridian is the segment from (radius `r0`, axial height `h0`) to
     /// (`r1`, `h1`), heights measured along `axis` from `origin`. A cylinder has r0 = r1,
-    /// a cone or frustum r0 != r1. Infinite extent is given by large |h|.
+    /// a cone or frustum r0 != r1. Infinite extent is given by large |h|. With a
+    /// `thickness` > 0 the wall is the solid shell within thickness/2 of that surface, its
+    /// ends rounded (a pipe: both faces and the rims touch particles); 0 is the surface.
     Revolution {
         origin: [f64; 3],
         axis: [f64; 3],
@@ -17,6 +19,7 @@ pub enum WallShape {
         h0: f64,
         r1: f64,
         h1: f64,
+        thickness: f64,
     },
 }
 

@@ -1256,6 +1256,14 @@ impl CellOperator {
     /// share of the cell's diagonal (wall and inflow sides have none). A cell all of whose
     /// faces are held then has a zero row, which the smoother leaves alone.
     pub fn hold_faces(&mut self, faces: &[u32]) {
+        let weighted: Vec<(u32, f64)> = faces.iter().map(|&f| (f, 1.0)).collect();
+        self.hold_face_shares(&weighted);
+    }
+
+    /// [`CellOperator::hold_faces`] for faces of which only the share `w` (0 to 1) is
+    /// held: that share of each coupling is removed (a coarse face whose children are
+    /// partly held, [`crate::PressureMg::hold_faces`]).
+    pub fn hold_face_shares(&mut self, faces: &[(u32, f64)]) {
         if faces.is_empty() {
             return;
         }
@@ -1263,9 +1271,9 @@ impl CellOperator {
         if self.held.index.is_empty() {
             self.held.index = vec![u32::MAX; lay.num_cells()];
         }
-        for &f in faces {
+        for &(f, w) in faces {
             let (a, fc) = lay.face_of(f as usize);
-            let coef = self.coef[a];
+            let coef = w * self.coef[a];
             match lay.face_cells(a, fc) {
                 [Some(m), Some(p)] => {
                     let (m, p) = (lay.cell(m), lay.cell(p));

@@ -41,9 +41,10 @@ pub fn wall_contact(shape: &WallShape, p: [f64; 3], reach: f64) -> Option<(f64, 
             h0,
             r1,
             h1,
+            thickness,
         } => {
             let gap = MeridianGap::of(origin, axis, [r0, h0, r1, h1], p);
-            if gap.dist >= reach {
+            if gap.dist - 0.5 * thickness >= reach {
                 return None;
             }
             // The radial direction at the axis (rare): only then worked out.
@@ -53,7 +54,7 @@ pub fn wall_contact(shape: &WallShape, p: [f64; 3], reach: f64) -> Option<(f64, 
                 splat3(any_perpendicular(axis))
             };
             let (dist, n) = gap.normal(axis, on_axis);
-            Some((dist, [n.x, n.y, n.z]))
+            Some((dist - 0.5 * thickness, [n.x, n.y, n.z]))
         }
     }
 }
@@ -90,7 +91,12 @@ impl<'a> WallLanes<'a> {
                 h0,
                 r1,
                 h1,
-            } => MeridianGap::of(origin, axis, [r0, h0, r1, h1], p).normal(axis, self.on_axis),
+                thickness,
+            } => {
+                let (dist, n) =
+                    MeridianGap::of(origin, axis, [r0, h0, r1, h1], p).normal(axis, self.on_axis);
+                (dist - f64x4::splat(0.5 * thickness), n)
+            }
         }
     }
 }
@@ -173,10 +179,14 @@ impl<T: Real> MeridianGap<T> {
 
 /// Whether `p` lies on the particle side of the wall: in front of a plane, or inside the
 /// surface of revolution within its axial extent. `None` where the wall does not decide
-/// (beyond the axial ends of an open cylinder or cone).
+/// (beyond the axial ends of an open cylinder or cone; anywhere outside the solid of a
+/// shell, whose both sides hold particles).
 pub fn wall_contains(shape: &WallShape, p: [f64; 3]) -> Option<bool> {
     match *shape {
         WallShape::Plane { .. } => Some(wall_distance(shape, p).0 >= 0.0),
+        WallShape::Revolution { thickness, .. } if thickness > 0.0 => {
+            (wall_distance(shape, p).0 < 0.0).then_some(false)
+        }
         WallShape::Revolution {
             origin,
             axis,
@@ -184,6 +194,7 @@ pub fn wall_contains(shape: &WallShape, p: [f64; 3]) -> Option<bool> {
             h0,
             r1,
             h1,
+            ..
         } => {
             let q = [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]];
             let h = q[0] * axis[0] + q[1] * axis[1] + q[2] * axis[2];
