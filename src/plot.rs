@@ -52,6 +52,11 @@ pub enum PlotKind {
     Series(SeriesArgs),
     /// Side view of the spheres (particles.h5) at one frame or several side by side.
     Particles(ParticlesArgs),
+    /// Excavation profiles: bed surface height against distance from a vertical axis at
+    /// several times (particles.h5), with the crater's depth and radius.
+    Profile(crate::excavation::ProfileArgs),
+    /// Extracted (sink-removed) mass against time (sinks.csv), one line per run.
+    Extraction(crate::excavation::ExtractionArgs),
 }
 
 #[derive(Args, Debug)]
@@ -248,7 +253,7 @@ fn parse_down(s: &str) -> Result<[f64; 3], String> {
     Ok(down)
 }
 
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
+pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("expected WIDTHxHEIGHT in pixels, each 200 to 10000, got `{s}`");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
@@ -276,7 +281,7 @@ impl std::fmt::Display for PlotError {
     }
 }
 
-fn input<T>(message: impl Into<String>) -> Result<T, PlotError> {
+pub(crate) fn input<T>(message: impl Into<String>) -> Result<T, PlotError> {
     Err(PlotError::Input(message.into()))
 }
 
@@ -286,6 +291,8 @@ pub fn main(args: PlotArgs) -> ExitCode {
         PlotKind::Contour(a) => contour(&a),
         PlotKind::Series(a) => series(&a),
         PlotKind::Particles(a) => particles(&a),
+        PlotKind::Profile(a) => crate::excavation::profile_plot(&a),
+        PlotKind::Extraction(a) => crate::excavation::extraction_plot(&a),
     };
     match result {
         Ok(path) => {
@@ -711,7 +718,7 @@ fn nearest_frame(frames: &[FrameInfo], t: f64) -> FrameInfo {
 }
 
 /// The frame nearest `t`, which must lie within the run (`arg` names the option).
-fn frame_in_run(
+pub(crate) fn frame_in_run(
     frames: &[FrameInfo],
     t: f64,
     arg: &str,
@@ -1277,7 +1284,12 @@ fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
         }
     );
     write_series_csv(a.csv.as_deref(), &lines)?;
-    draw_series(&lines, &title, &y_desc, a.size, &out)?;
+    let text = LineChart {
+        title: &title,
+        x_desc: "t (s)",
+        y_desc: &y_desc,
+    };
+    draw_lines(&lines, &text, a.size, &out)?;
     Ok(out)
 }
 
@@ -1357,12 +1369,17 @@ fn cloud_series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
         _ => "mean settling velocity of the spheres against time",
     };
     write_series_csv(a.csv.as_deref(), &lines)?;
-    draw_series(&lines, title, &y_desc, a.size, &out)?;
+    let text = LineChart {
+        title,
+        x_desc: "t (s)",
+        y_desc: &y_desc,
+    };
+    draw_lines(&lines, &text, a.size, &out)?;
     Ok(out)
 }
 
 /// The lines of a series plot as CSV, `line,time,value`, if a file is asked for.
-fn write_series_csv(
+pub(crate) fn write_series_csv(
     path: Option<&Path>,
     lines: &[(String, Vec<(f64, f64)>)],
 ) -> Result<(), PlotError> {
@@ -1379,13 +1396,25 @@ fn write_series_csv(
         .map_err(|e| PlotError::Failed(format!("--csv {}: cannot write: {e}", path.display())))
 }
 
-fn draw_series(
+/// The texts of a line chart.
+pub(crate) struct LineChart<'a> {
+    pub title: &'a str,
+    pub x_desc: &'a str,
+    pub y_desc: &'a str,
+}
+
+/// Named lines of `(x, y)` points on one pair of axes, with a legend.
+pub(crate) fn draw_lines(
     lines: &[(String, Vec<(f64, f64)>)],
-    title: &str,
-    y_desc: &str,
+    chart_text: &LineChart,
     size: (u32, u32),
     out: &Path,
 ) -> Result<(), PlotError> {
+    let LineChart {
+        title,
+        x_desc,
+        y_desc,
+    } = *chart_text;
     let fail = draw_err(out);
     let (t0, t1) = value_range(lines.iter().flat_map(|l| l.1.iter().map(|p| p.0)))
         .ok_or_else(|| PlotError::Input("no frames to plot".into()))?;
@@ -1405,7 +1434,7 @@ fn draw_series(
         .map_err(&fail)?;
     chart
         .configure_mesh()
-        .x_desc("t (s)")
+        .x_desc(x_desc)
         .y_desc(y_desc)
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))

@@ -235,7 +235,7 @@ impl PressureMg {
                 .for_each(|(p, z)| *p = z + beta * *p);
             self.levels[fine].op.apply(&p, &mut q);
             let pq = dot(&p, &q);
-            if !(pq > 0.0) {
+            if pq.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 break;
             }
             let alpha = rz / pq;
