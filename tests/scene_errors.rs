@@ -77,7 +77,7 @@ fn bad_scenes_exit_2_naming_file_and_field() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
     let sink = |body: &str| format!("{GOOD}\n[[sinks]]\n{body}\n");
-    let cases: [(&str, String, &str); 10] = [
+    let cases: [(&str, String, &str); 11] = [
         (
             "sink_zero_normal.toml",
             sink("point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 0.0]"),
@@ -90,7 +90,12 @@ fn bad_scenes_exit_2_naming_file_and_field() {
         ),
         (
             "sink_unknown_field.toml",
-            sink("point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\nradius = 1.0"),
+            sink("point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\nradious = 1.0"),
+            "sinks[0].radious",
+        ),
+        (
+            "sink_bad_radius.toml",
+            sink("point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\nradius = -1.0"),
             "sinks[0].radius",
         ),
         (
