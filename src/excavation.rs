@@ -212,9 +212,7 @@ pub fn profile_plot(a: &ProfileArgs) -> Result<PathBuf, PlotError> {
     }
     let unit = &a.length_unit;
     println!("packed solid fraction phi_ref = {phi_ref:.3} (first frame)");
-    println!(
-        "time ({unit}), crater depth ({unit}), crater radius ({unit}), far-field height ({unit})"
-    );
+    println!("time (s), crater depth ({unit}), crater radius ({unit}), far-field height ({unit})");
     let mut lines = Vec::new();
     for &t in &a.times {
         let info = frame_in_run(&run.frames, t, "--times", &file)?;
