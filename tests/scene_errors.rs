@@ -226,8 +226,21 @@ fn bad_wall_and_inflow_values_exit_2_naming_the_field() {
     let cylinder = "\n[[walls]]\ntype = \"cylinder\"\nmaterial = \"steel\"\naxis = \"z\"\ncenter = [0.0, 0.0]\nradius = 0.5\n";
     let inflow = "\n[[inflows]]\nmaterial = \"steel\"\nrate = 100.0\ntotal = 10\nradii = [0.005]\nfractions = [1.0]\n\
                   region = { type = \"cylinder\", center = [0.0, 0.0], radius = 0.1, bottom = 0.1, top = 0.2 }\n";
+    let pipe =
+        "\n[[walls]]\ntype = \"pipe\"\nmaterial = \"steel\"\naxis = \"z\"\ncenter = [0.0, 0.0]\n\
+                inner_radius = 0.2\nouter_radius = 0.3\nbottom = 0.5\ntop = 1.0\n";
     let with = |extra: &str, from: &str, to: &str| format!("{GOOD}{}", extra.replacen(from, to, 1));
     let cases = [
+        (
+            "pipe_inverted_wall.toml",
+            with(pipe, "outer_radius = 0.3", "outer_radius = 0.1"),
+            "walls[1].outer_radius",
+        ),
+        (
+            "pipe_top_below_bottom.toml",
+            with(pipe, "top = 1.0", "top = 0.4"),
+            "walls[1].top",
+        ),
         (
             "nan_center.toml",
             with(cylinder, "center = [0.0, 0.0]", "center = [nan, 0.0]"),
@@ -259,7 +272,7 @@ fn bad_wall_and_inflow_values_exit_2_naming_the_field() {
         ),
     ];
     // The unedited additions are accepted: the cases fail for the edited value alone.
-    for extra in [cylinder, inflow] {
+    for extra in [cylinder, inflow, pipe] {
         let path = write_scene(d, "base.toml", &format!("{GOOD}{extra}"));
         let (code, _, stderr) = run_cli(&["check", path.to_str().unwrap()]);
         assert_eq!(code, 0, "{stderr}");

@@ -134,7 +134,7 @@ impl PressureMg {
     }
 
     /// Removes the couplings of the held faces `faces` from the finest level
-    /// ([`CellOperator::hold_faces`]) and their shares from the coarser ones
+    /// ([`CellOperator::hold_face_shares`], share 1) and their shares from the coarser ones
     /// ([`coarse_face_shares`]), so that every level sees a solid wall inside the flow
     /// (a pipe's bore apart from the water around it) and the coarse-grid corrections do
     /// not leak through it.

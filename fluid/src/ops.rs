@@ -1197,7 +1197,7 @@ pub struct CellOperator {
 }
 
 /// The part of `P` that faces held at a prescribed velocity remove
-/// ([`CellOperator::hold_faces`]): the projection does not correct them, so they carry no
+/// ([`CellOperator::hold_face_shares`]): the projection does not correct them, so they carry no
 /// coupling between their cells. For each cell next to one, the diagonal to subtract and
 /// the neighbours whose coupling goes.
 #[derive(Debug, Clone, Default)]
@@ -1250,19 +1250,13 @@ impl CellOperator {
         }
     }
 
-    /// Removes from `P` the couplings of the faces `faces` (indices of a face field), held
-    /// at a prescribed velocity by the flow solver and not corrected by its projection:
-    /// across an interior face the coupling of its two cells, across a do-nothing side its
-    /// share of the cell's diagonal (wall and inflow sides have none). A cell all of whose
-    /// faces are held then has a zero row, which the smoother leaves alone.
-    pub fn hold_faces(&mut self, faces: &[u32]) {
-        let weighted: Vec<(u32, f64)> = faces.iter().map(|&f| (f, 1.0)).collect();
-        self.hold_face_shares(&weighted);
-    }
-
-    /// [`CellOperator::hold_faces`] for faces of which only the share `w` (0 to 1) is
-    /// held: that share of each coupling is removed (a coarse face whose children are
-    /// partly held, [`crate::PressureMg::hold_faces`]).
+    /// Removes from `P` the share `w` (0 to 1) of the couplings of each face of `faces`
+    /// (`(index of a face field, w)`), held at a prescribed velocity by the flow solver
+    /// and not corrected by its projection: across an interior face the coupling of its
+    /// two cells, across a do-nothing side its share of the cell's diagonal (wall and
+    /// inflow sides have none). On the finest level every share is 1; a coarse face whose
+    /// children are partly held has less ([`crate::PressureMg::hold_faces`]). A cell all
+    /// of whose faces are wholly held then has a zero row, which the smoother leaves alone.
     pub fn hold_face_shares(&mut self, faces: &[(u32, f64)]) {
         if faces.is_empty() {
             return;
