@@ -4,16 +4,22 @@
 //!
 //! The bed surface height at distance r from a vertical axis is the equivalent height of
 //! the packed bed in the annulus [r, r + dr): the particles are counted in layers of
-//! height dz by their centres, each layer's solid fraction phi (sphere volumes over the
+//! height dz by 32 points of each sphere, each layer's solid fraction phi (sphere volumes over the
 //! annulus volume) is divided by the packed fraction phi_ref, and the ratios are summed
 //! times dz from the floor up to the first two layers in a row below phi_ref / 4 (the top
 //! of the bed: a grain carried up the pipe, above that gap, is not bed; one sparse layer
 //! alone is the sampling noise of a small annulus). phi_ref is the solid
 //! fraction of the first frame's bed in the profiled cylinder between dz and half its
-//! highest centre, away from the floor and the surface. The crater is measured against
-//! the far field, the mean height of the outer quarter of the annuli: its depth is the
-//! far height less the lowest height, its radius the smallest r at which the profile
-//! climbs back to the far height less a tenth of the depth (interpolated linearly).
+//! highest centre, away from the floor and the surface.
+//!
+//! The crater is measured against the first frame's profile, not against a flat far
+//! field (a poured bed is not flat: it heaps where it was poured and sags at the walls).
+//! The excavation at r is the drop d(r) = h_0(r) - h(r); the crater's depth is the
+//! largest drop, its radius the smallest r beyond the deepest annulus at which the drop
+//! is back below a tenth of the depth (interpolated linearly), and its volume the bulk
+//! (packed) volume sum of d(r) A(r) over the annuli inside that radius. The volume is
+//! checked against the particles: the solid volume that left the profiled cylinder over
+//! phi_ref is the bulk volume it should be.
 use std::path::{Path, PathBuf};
 
 use clap::Args;
@@ -89,6 +95,26 @@ fn parse_xy(s: &str) -> Result<[f64; 2], String> {
     }
 }
 
+/// The points of the unit ball that split a sphere's volume over the bins, equal
+/// weights: the 32 points of the lattice {-3/4, -1/4, 1/4, 3/4}^3 inside the ball, the
+/// midpoint rule on the cells of side 1/2 whose centres are inside (32 cells of volume
+/// 4.0 against the ball's 4.19; the weights are a sphere's volume / 32, so the total is
+/// exact).
+fn ball_points() -> Vec<[f64; 3]> {
+    const C: [f64; 4] = [-0.75, -0.25, 0.25, 0.75];
+    let mut points = Vec::with_capacity(32);
+    for x in C {
+        for y in C {
+            for z in C {
+                if x * x + y * y + z * z < 1.0 {
+                    points.push([x, y, z]);
+                }
+            }
+        }
+    }
+    points
+}
+
 /// The annuli and layers of a profile about the vertical axis through `axis`.
 #[derive(Clone, Copy, Debug)]
 pub struct ProfileGrid {
@@ -104,16 +130,28 @@ impl ProfileGrid {
     }
 
     /// The solid volume per (annulus, layer) of `frame`, layers from z = 0 up to the
-    /// highest centre, by particle centre.
+    /// highest centre and a radius: each sphere's volume is split over the bins by
+    /// [`ball_points`] (a grain on a bin edge counts half on either side, not all on
+    /// the side of its centre).
     fn solid(&self, frame: &ParticleFrame) -> Vec<Vec<f64>> {
-        let top = frame.position.iter().map(|p| p[2]).fold(0.0, f64::max);
+        let top = frame
+            .position
+            .iter()
+            .zip(&frame.radius)
+            .map(|(p, r)| p[2] + r)
+            .fold(0.0, f64::max);
         let layers = (top / self.dz).floor() as usize + 1;
         let mut v = vec![vec![0.0; layers]; self.annuli()];
+        let points = ball_points();
         for (p, &r) in frame.position.iter().zip(&frame.radius) {
-            let rho = (p[0] - self.axis[0]).hypot(p[1] - self.axis[1]);
-            let (a, l) = ((rho / self.dr).floor(), (p[2] / self.dz).floor());
-            if a < self.annuli() as f64 && l >= 0.0 {
-                v[a as usize][l as usize] += 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+            let share = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) / points.len() as f64;
+            for q in &points {
+                let (x, y, z) = (p[0] + r * q[0], p[1] + r * q[1], p[2] + r * q[2]);
+                let rho = (x - self.axis[0]).hypot(y - self.axis[1]);
+                let (a, l) = ((rho / self.dr).floor(), (z / self.dz).floor());
+                if a < self.annuli() as f64 && l >= 0.0 {
+                    v[a as usize][(l as usize).min(layers - 1)] += share;
+                }
             }
         }
         v
@@ -157,27 +195,61 @@ impl ProfileGrid {
     }
 }
 
-/// The crater of a profile: `(depth, radius, far-field height)` (module docs).
-pub fn crater(profile: &[(f64, f64)]) -> (f64, f64, f64) {
-    let n = profile.len();
-    let outer = &profile[n - (n / 4).max(1)..];
-    let far = outer.iter().map(|p| p.1).sum::<f64>() / outer.len() as f64;
-    let low = profile.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
-    let depth = far - low;
-    let level = far - 0.1 * depth;
-    let lowest = profile
-        .iter()
-        .position(|p| p.1 == low)
-        .expect("the lowest point is in the profile");
-    let mut radius = profile[lowest].0;
-    for w in profile[lowest..].windows(2) {
-        if w[1].1 >= level {
-            let t = (level - w[0].1) / (w[1].1 - w[0].1);
-            radius = w[0].0 + t.clamp(0.0, 1.0) * (w[1].0 - w[0].0);
-            break;
+/// The crater of a profile against the first frame's (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crater {
+    /// The largest drop of the surface.
+    pub depth: f64,
+    /// Where the drop is back below a tenth of the depth.
+    pub radius: f64,
+    /// The bulk volume of the drop inside that radius.
+    pub volume: f64,
+}
+
+impl ProfileGrid {
+    /// The crater of `profile` against the `initial` profile of the same grid.
+    pub fn crater(&self, initial: &[(f64, f64)], profile: &[(f64, f64)]) -> Crater {
+        let drop: Vec<f64> = initial
+            .iter()
+            .zip(profile)
+            .map(|(a, b)| a.1 - b.1)
+            .collect();
+        let deepest = (0..drop.len())
+            .max_by(|&i, &j| drop[i].total_cmp(&drop[j]))
+            .expect("a profile has at least 4 annuli");
+        let depth = drop[deepest].max(0.0);
+        let level = 0.1 * depth;
+        let mid = |a: usize| profile[a].0;
+        if depth == 0.0 {
+            return Crater {
+                depth,
+                radius: 0.0,
+                volume: 0.0,
+            };
+        }
+        let mut radius = self.r_max;
+        let mut inside = drop.len();
+        for a in deepest..drop.len() - 1 {
+            if drop[a + 1] < level {
+                let t = (drop[a] - level) / (drop[a] - drop[a + 1]);
+                radius = mid(a) + t.clamp(0.0, 1.0) * (mid(a + 1) - mid(a));
+                inside = a + 1;
+                break;
+            }
+        }
+        let volume = (0..inside).map(|a| drop[a] * self.annulus_area(a)).sum();
+        Crater {
+            depth,
+            radius,
+            volume,
         }
     }
-    (depth, radius, far)
+
+    /// The solid volume of `frame`'s particles with centres inside the profiled
+    /// cylinder.
+    pub fn solid_volume(&self, frame: &ParticleFrame) -> f64 {
+        self.solid(frame).iter().flatten().sum()
+    }
 }
 
 pub fn profile_plot(a: &ProfileArgs) -> Result<PathBuf, PlotError> {
@@ -210,15 +282,25 @@ pub fn profile_plot(a: &ProfileArgs) -> Result<PathBuf, PlotError> {
             a.r_max
         ));
     }
+    let initial = grid.profile(&first, phi_ref);
+    let solid0 = grid.solid_volume(&first);
     let unit = &a.length_unit;
     println!("packed solid fraction phi_ref = {phi_ref:.3} (first frame)");
-    println!("time (s), crater depth ({unit}), crater radius ({unit}), far-field height ({unit})");
+    println!(
+        "time (s), crater depth ({unit}), radius ({unit}), volume ({unit}^3), \
+         solid volume lost from the cylinder / phi_ref ({unit}^3)"
+    );
     let mut lines = Vec::new();
     for &t in &a.times {
         let info = frame_in_run(&run.frames, t, "--times", &file)?;
-        let profile = grid.profile(&run.read(info)?, phi_ref);
-        let (depth, radius, far) = crater(&profile);
-        println!("t = {:.3} s: {depth:.3}, {radius:.3}, {far:.3}", info.time);
+        let frame = run.read(info)?;
+        let profile = grid.profile(&frame, phi_ref);
+        let c = grid.crater(&initial, &profile);
+        let lost = (solid0 - grid.solid_volume(&frame)) / phi_ref;
+        println!(
+            "t = {:.3} s: {:.3}, {:.3}, {:.2}, {lost:.2}",
+            info.time, c.depth, c.radius, c.volume
+        );
         lines.push((format!("t = {:.2} s", info.time), profile));
     }
     let out = a
