@@ -2,15 +2,15 @@
 //! mass of a run (`grainflow plot extraction`): the suction case's figures
 //! (`cases/suction.toml`, docs/suction.md).
 //!
-//! The bed surface height at distance r from a vertical axis is the equivalent height of
-//! the packed bed in the annulus [r, r + dr): the particles are counted in layers of
-//! height dz by 32 points of each sphere, each layer's solid fraction phi (sphere volumes over the
-//! annulus volume) is divided by the packed fraction phi_ref, and the ratios are summed
-//! times dz from the floor up to the first two layers in a row below phi_ref / 4 (the top
-//! of the bed: a grain carried up the pipe, above that gap, is not bed; one sparse layer
-//! alone is the sampling noise of a small annulus). phi_ref is the solid
-//! fraction of the first frame's bed in the profiled cylinder between dz and half its
-//! highest centre, away from the floor and the surface.
+//! The bed surface height at distance r from a vertical axis is the equivalent height
+//! of the packed bed in the annulus [r, r + dr): the particles are counted in layers of
+//! height dz by 32 points of each sphere, each layer's solid fraction phi (sphere
+//! volumes over the annulus volume) is divided by the packed fraction phi_ref, and the
+//! ratios are summed times dz from the floor up to the first two layers in a row below
+//! phi_ref / 4 (the top of the bed: a grain carried up the pipe, above that gap, is not
+//! bed; one sparse layer alone is the sampling noise of a small annulus). phi_ref is
+//! the solid fraction of the first frame's bed in the profiled cylinder between dz and
+//! half its highest centre, away from the floor and the surface.
 //!
 //! The crater is measured against the first frame's profile, not against a flat far
 //! field (a poured bed is not flat: it heaps where it was poured and sags at the walls).
@@ -130,7 +130,7 @@ impl ProfileGrid {
     }
 
     /// The solid volume per (annulus, layer) of `frame`, layers from z = 0 up to the
-    /// highest centre and a radius: each sphere's volume is split over the bins by
+    /// highest particle top: each sphere's volume is split over the bins by
     /// [`ball_points`] (a grain on a bin edge counts half on either side, not all on
     /// the side of its centre).
     fn solid(&self, frame: &ParticleFrame) -> Vec<Vec<f64>> {
@@ -150,7 +150,7 @@ impl ProfileGrid {
                 let rho = (x - self.axis[0]).hypot(y - self.axis[1]);
                 let (a, l) = ((rho / self.dr).floor(), (z / self.dz).floor());
                 if a < self.annuli() as f64 && l >= 0.0 {
-                    v[a as usize][(l as usize).min(layers - 1)] += share;
+                    v[a as usize][l as usize] += share;
                 }
             }
         }
@@ -218,8 +218,6 @@ impl ProfileGrid {
             .max_by(|&i, &j| drop[i].total_cmp(&drop[j]))
             .expect("a profile has at least 4 annuli");
         let depth = drop[deepest].max(0.0);
-        let level = 0.1 * depth;
-        let mid = |a: usize| profile[a].0;
         if depth == 0.0 {
             return Crater {
                 depth,
@@ -227,6 +225,8 @@ impl ProfileGrid {
                 volume: 0.0,
             };
         }
+        let level = 0.1 * depth;
+        let mid = |a: usize| profile[a].0;
         let mut radius = self.r_max;
         let mut inside = drop.len();
         for a in deepest..drop.len() - 1 {
@@ -245,8 +245,8 @@ impl ProfileGrid {
         }
     }
 
-    /// The solid volume of `frame`'s particles with centres inside the profiled
-    /// cylinder.
+    /// The solid volume of `frame`'s particles inside the profiled cylinder (split
+    /// as in the profile).
     pub fn solid_volume(&self, frame: &ParticleFrame) -> f64 {
         self.solid(frame).iter().flatten().sum()
     }

@@ -1,15 +1,16 @@
 //! Excavation profiles (`src/excavation.rs`, `grainflow plot profile`): a synthetic bed
-//! with a known crater. 48,000 grains of r = 0.2 at uniform random centres fill
-//! [0, 20]^2 x [0, 8] (solid fraction 0.5); the cratered bed is the same bed less the
+//! with a known crater. 48,000 grains of r = 0.2 at uniform random centres fill [0,
+//! 20]^2 x [0, 8] (solid fraction 0.5); the cratered bed is the same bed less the
 //! grains inside a cone about the axis x = y = 10, depth D = 3 and radius R = 5: its
 //! surface is h(r) = 8 - D (1 - r / R) for r < R, 8 beyond. The profile must follow it
 //! to within a quarter layer plus three standard deviations of the grain count in each
-//! annulus (dr = 0.5, dz = 0.5). Against the uncratered bed the crater's depth must be D
-//! (its mean over the innermost annulus) and its radius (where the drop is back to D / 10) R (1 - 1/10) = 4.5, both within
-//! 0.25; its bulk volume the cone's pi R^2 D / 3 = 78.5 within the count's noise
-//! (8.8 %) and the removed solid volume over phi_ref within 5 %. Grains carried above
-//! the bed (200 in the water over the crater, z = 12-20) change nothing, and a second
-//! uncratered bed of other random grains has no crater against the first.
+//! annulus (dr = 0.5, dz = 0.5). Against the uncratered bed the crater's depth must be
+//! D (its mean over the innermost annulus) and its radius (where the drop is back to D
+//! / 10) R (1 - 1/10) = 4.5, both within 0.25; its bulk volume the cone's pi R^2 D / 3
+//! = 78.5 within the count's noise (8.8 %) and the removed solid volume over phi_ref
+//! within 5 %. Grains carried above the bed (200 in the water over the crater, z =
+//! 12-20) change nothing, and a second uncratered bed of other random grains has no
+//! crater against the first.
 use grainflow::excavation::ProfileGrid;
 use grainflow::plot::{FrameInfo, ParticleFrame};
 
