@@ -24,7 +24,9 @@ use bevy_ecs::system::RunSystemOnce;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use grainflow::run::Simulation;
 use grainflow_components::{IntegratorKind, Particles, PredictAhead, VerletList};
-use grainflow_systems::{gear, granular, hertz, neighbour_list, verlet};
+use grainflow_systems::contact::{frictionless, with_history};
+use grainflow_systems::integrate::{gear, verlet};
+use grainflow_systems::neighbour::verlet_list;
 
 /// The material lines that turn friction and rolling resistance on.
 const FRICTION_ROLLING: &str = "friction = 0.5\nrolling_friction = 0.1";
@@ -104,9 +106,7 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 pool.install(|| {
                     sim.world.resource_mut::<VerletList>().stale = true;
-                    sim.world
-                        .run_system_once(neighbour_list::verlet_list)
-                        .unwrap();
+                    sim.world.run_system_once(verlet_list::verlet_list).unwrap();
                 })
             })
         });
@@ -122,7 +122,7 @@ fn bench(c: &mut Criterion) {
                         loose.world.resource_mut::<VerletList>().stale = true;
                         loose
                             .world
-                            .run_system_once(neighbour_list::verlet_list)
+                            .run_system_once(verlet_list::verlet_list)
                             .unwrap();
                     })
                 })
@@ -130,7 +130,13 @@ fn bench(c: &mut Criterion) {
         );
         drop(loose);
         group.bench_function(BenchmarkId::new("contact_forces", n), |b| {
-            b.iter(|| pool.install(|| sim.world.run_system_once(hertz::hertz_contact).unwrap()))
+            b.iter(|| {
+                pool.install(|| {
+                    sim.world
+                        .run_system_once(frictionless::hertz_contact)
+                        .unwrap()
+                })
+            })
         });
         group.bench_function(BenchmarkId::new("gear_predict_correct", n), |b| {
             b.iter(|| {
@@ -157,7 +163,7 @@ fn bench(c: &mut Criterion) {
                 b.iter(|| {
                     pool.install(|| {
                         sim.world
-                            .run_system_once(granular::granular_contact)
+                            .run_system_once(with_history::granular_contact)
                             .unwrap()
                     })
                 })

@@ -4,9 +4,9 @@ use std::path::Path;
 
 use bevy_ecs::prelude::World;
 use grainflow_components::*;
+use grainflow_systems::contact::walls::{wall_contains, wall_distance};
 use grainflow_systems::coupling::markers::outside_the_fluid;
 use grainflow_systems::inflow::next_f64;
-use grainflow_systems::walls::{wall_contains, wall_distance};
 
 use crate::scene::{
     Axis, BoundaryRuleName, ForceMethodName, InsideFluidName, ParticleUpdateName, RegionSpec,
@@ -159,7 +159,7 @@ pub fn largest_critical_separation(laws: &ContactLaws, pairs: &[PairParams], r_m
         .zip(pairs)
         .filter_map(|(law, p)| {
             law.adhesion.map(|a| {
-                grainflow_systems::jkr::Jkr {
+                grainflow_systems::contact::laws::jkr::Jkr {
                     e_star: 0.75 * p.hertz_factor,
                     r_eff: r_max,
                     work: a.work,
@@ -688,7 +688,7 @@ fn insert_rotation(world: &mut World, rows: usize) {
         .get_resource::<IntegratorKind>()
         .expect("rotation needs particles and an integrator");
     let mut rotation = Rotation {
-        aux: vec![Default::default(); grainflow_systems::rotation::aux_columns(kind)],
+        aux: vec![Default::default(); grainflow_systems::integrate::rotation::aux_columns(kind)],
         ..Default::default()
     };
     rotation.resize_rows(rows);

@@ -7,7 +7,7 @@ use std::path::Path;
 use grainflow::run::Simulation;
 use grainflow::scene;
 use grainflow_components::{ContactHistory, PairList, Particles, VerletList};
-use grainflow_systems::neighbour_list::scatter_plan;
+use grainflow_systems::neighbour::verlet_list::scatter_plan;
 
 const SCENE: &str = r#"
 [simulation]

@@ -1,4 +1,4 @@
-//! The contact system with history (`grainflow_systems::granular::granular_contact`)
+//! The contact system with history (`grainflow_systems::contact::with_history::granular_contact`)
 //! against a brute-force sum over all pairs of the same models, evaluated one contact at
 //! a time: Hertz normal force with constant damping (seed slide "Models for DEM"),
 //! Coulomb friction with a tangential spring (seed slide "Tangential contact with static
@@ -18,11 +18,11 @@ mod common;
 use bevy_ecs::system::RunSystemOnce;
 use common::*;
 use grainflow_components::{ContactHistory, Particles, Rotation};
-use grainflow_systems::friction::coulomb_tangential_force;
-use grainflow_systems::granular::granular_contact;
-use grainflow_systems::hertz::{hertz_normal_force, ConstantDamping};
+use grainflow_systems::contact::laws::friction::coulomb_tangential_force;
+use grainflow_systems::contact::laws::hertz::{hertz_normal_force, ConstantDamping};
+use grainflow_systems::contact::laws::rolling::{rolling_resistance_force, rolling_velocity};
+use grainflow_systems::contact::with_history::granular_contact;
 use grainflow_systems::real::V3;
-use grainflow_systems::rolling::{rolling_resistance_force, rolling_velocity};
 
 const E: f64 = 1e7;
 const NU: f64 = 0.3;

@@ -1,4 +1,4 @@
-//! The Hertz contact system (`grainflow_systems::hertz::hertz_contact`) against a
+//! The Hertz contact system (`grainflow_systems::contact::frictionless::hertz_contact`) against a
 //! brute-force sum over all pairs of the seed's normal law (slide "Models for DEM";
 //! Hertz 1896): F_ij = (4/3) E* sqrt(R*) delta^(3/2) + d_n delta_dot along the centre
 //! line, E* = 1/((1-nu_i^2)/E_i + (1-nu_j^2)/E_j), R* = r_i r_j/(r_i + r_j).
@@ -16,7 +16,7 @@ mod common;
 use bevy_ecs::system::RunSystemOnce;
 use common::*;
 use grainflow_components::{Particles, RunHealth, VerletList};
-use grainflow_systems::hertz::hertz_contact;
+use grainflow_systems::contact::frictionless::hertz_contact;
 
 const E: f64 = 1e7;
 const NU: f64 = 0.3;

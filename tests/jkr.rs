@@ -9,7 +9,7 @@
 //!   delta_s = a0^2/(2 6^(1/3) R*)  (displacement control: the contact breaks at
 //!   delta = -delta_s, a = a0/36^(1/3), where F = -5/9 P_c).
 //!
-//! (a) The analytic helpers of `grainflow_systems::jkr` against those formulas, written
+//! (a) The analytic helpers of `grainflow_systems::contact::laws::jkr` against those formulas, written
 //!     out here independently (tolerances: round-off, and the square-root conditioning of
 //!     a(delta) at the branch point delta = -delta_s, where d delta/da = 0).
 //! (b) Displacement control: two `fixed` spheres, one moving at a constant slow speed;
@@ -25,7 +25,7 @@ mod common;
 
 use common::*;
 use grainflow::run::Simulation;
-use grainflow_systems::jkr::Jkr;
+use grainflow_systems::contact::laws::jkr::Jkr;
 use std::f64::consts::PI;
 
 // ---------------------------------------------------------------------------------------

@@ -21,7 +21,7 @@ mod common;
 use common::*;
 use grainflow::run::Simulation;
 use grainflow_components::{NeighbourSettings, Particles, VerletList};
-use grainflow_systems::neighbour_list::CellGrid;
+use grainflow_systems::neighbour::verlet_list::CellGrid;
 
 struct Sphere {
     radius: f64,

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use grainflow::run::Simulation;
 use grainflow_components::Particles;
-use grainflow_systems::jkr::Jkr;
+use grainflow_systems::contact::laws::jkr::Jkr;
 
 /// Positions of the spheres in id order.
 fn chain(sim: &Simulation) -> Vec<[f64; 3]> {

@@ -6,8 +6,8 @@
 use std::f64::consts::SQRT_2;
 
 use grainflow_components::WallShape;
+use grainflow_systems::contact::walls::{wall_contains, wall_distance, WallLanes};
 use grainflow_systems::real::V3;
-use grainflow_systems::walls::{wall_contains, wall_distance, WallLanes};
 use wide::f64x4;
 
 mod common;

@@ -23,7 +23,7 @@ use grainflow_components::{
 };
 use rayon::prelude::*;
 
-use crate::walls::wall_contact;
+use crate::contact::walls::wall_contact;
 use crate::CHUNK;
 
 /// Steps between two checks: the passes cost about one contact pass each, so a check

@@ -5,7 +5,7 @@ use grainflow_components::{
     Inflow, InflowRegion, Inflows, Materials, NewParticle, Particles, VerletList, Walls,
 };
 
-use crate::walls::{wall_contains, wall_distance};
+use crate::contact::walls::{wall_contains, wall_distance};
 
 pub fn has_inflow(w: &World) -> bool {
     w.get_resource::<Inflows>()

@@ -8,28 +8,19 @@
 //! integer `max`: for non-negative floats the bit patterns order like the numbers, and the
 //! integer reduction vectorises where `f64::max` (with its NaN rule) would not.
 
-pub mod clamp;
-pub mod compressed_rows;
+pub mod contact;
 pub mod coupling;
 pub mod energy;
 pub mod fluid;
-pub mod friction;
-pub mod gear;
-pub mod granular;
-pub mod hertz;
 pub mod inflow;
-pub mod jkr;
+pub mod integrate;
 pub mod monitor;
-pub mod neighbour_list;
+pub mod neighbour;
 pub mod real;
-pub mod rolling;
-pub mod rotation;
 pub mod rows;
 pub mod schedule;
 pub mod sinks;
 pub mod team;
-pub mod verlet;
-pub mod walls;
 
 pub use schedule::{build_schedule, CoupledStep, Phase, StepSet, SystemEntry, REGISTRY};
 
@@ -153,5 +144,5 @@ pub fn row_chunks<'a, T>(
 ) -> Vec<&'a mut [T]> {
     let lengths = (0..n.div_ceil(CHUNK))
         .map(|c| (start[((c + 1) * CHUNK).min(n)] - start[c * CHUNK]) as usize * width);
-    compressed_rows::split_lengths(values, lengths)
+    neighbour::compressed_rows::split_lengths(values, lengths)
 }

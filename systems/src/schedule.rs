@@ -56,15 +56,15 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use grainflow_components::{GearState, IntegratorKind, SimClock, VerletState, Walls};
 
-use crate::clamp::has_clamped;
+use crate::contact::with_history::has_contact_laws;
+use crate::contact::{frictionless, walls, with_history};
 use crate::coupling::{has_blending, has_coupling};
 use crate::fluid::{has_fluid, FluidFlow};
-use crate::granular::has_contact_laws;
-use crate::rotation::has_rotation;
-use crate::{
-    clamp, coupling, energy, fluid, gear, granular, hertz, inflow, monitor, neighbour_list,
-    rotation, rows, sinks, verlet, walls,
-};
+use crate::integrate::clamp::has_clamped;
+use crate::integrate::rotation::has_rotation;
+use crate::integrate::{clamp, gear, rotation, verlet};
+use crate::neighbour::verlet_list;
+use crate::{coupling, energy, fluid, inflow, monitor, rows, sinks};
 use grainflow_components::{Clamped, Coupling, HydroForces, Rotation};
 
 /// The ordered phases of a step.
@@ -294,7 +294,7 @@ pub const REGISTRY: &[SystemEntry] = &[
         phase: Phase::Both,
         wanted: has_dem,
         add: |s, set| {
-            s.add_systems(neighbour_list::verlet_list.in_set(set));
+            s.add_systems(verlet_list::verlet_list.in_set(set));
         },
     },
     SystemEntry {
@@ -312,7 +312,7 @@ pub const REGISTRY: &[SystemEntry] = &[
         phase: Phase::Both,
         wanted: wall_history,
         add: |s, set| {
-            s.add_systems(granular::carry_wall_history.in_set(set));
+            s.add_systems(with_history::carry_wall_history.in_set(set));
         },
     },
     SystemEntry {
@@ -366,7 +366,7 @@ pub const REGISTRY: &[SystemEntry] = &[
         phase: Phase::Both,
         wanted: frictionless,
         add: |s, set| {
-            s.add_systems(hertz::hertz_contact.in_set(set));
+            s.add_systems(frictionless::hertz_contact.in_set(set));
         },
     },
     SystemEntry {
@@ -375,7 +375,7 @@ pub const REGISTRY: &[SystemEntry] = &[
         phase: Phase::Both,
         wanted: has_contact_laws,
         add: |s, set| {
-            s.add_systems(granular::granular_contact.in_set(set));
+            s.add_systems(with_history::granular_contact.in_set(set));
         },
     },
     SystemEntry {

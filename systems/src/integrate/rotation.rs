@@ -11,7 +11,7 @@ use bevy_ecs::prelude::*;
 use grainflow_components::{IntegratorKind, Particles, Rotation, SimClock};
 use rayon::prelude::*;
 
-use crate::gear::{flush_tiny, predicted_derivatives};
+use crate::integrate::gear::{flush_tiny, predicted_derivatives};
 use crate::team::StaticSplit;
 use crate::CHUNK;
 

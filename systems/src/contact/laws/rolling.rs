@@ -2,7 +2,7 @@
 //! resistance", as a spring-dashpot on the integrated rolling displacement capped at
 //! M_r,crit = mu_r R* F_n (Ai, Chen, Rotter & Ooi 2011, Powder Technol. 206:269, model
 //! type C).
-use crate::friction::capped_spring_dashpot;
+use crate::contact::laws::friction::capped_spring_dashpot;
 use crate::real::{Real, V3};
 
 /// Rolling velocity of a contact with unit normal `n` (from j to i):

@@ -14,7 +14,7 @@ use grainflow_components::{
 };
 use rayon::prelude::*;
 
-use crate::compressed_rows::{join_rows, reverse_index};
+use crate::neighbour::compressed_rows::{join_rows, reverse_index};
 use crate::team::StaticSplit;
 use crate::{row_chunks, CHUNK};
 

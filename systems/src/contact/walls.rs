@@ -7,7 +7,7 @@ use grainflow_components::{
 use rayon::prelude::*;
 use wide::f64x4;
 
-use crate::compressed_rows::join_rows;
+use crate::neighbour::compressed_rows::join_rows;
 use crate::real::{Real, V3};
 use crate::CHUNK;
 

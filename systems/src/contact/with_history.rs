@@ -1,11 +1,11 @@
 //! Contact forces with per-contact history, for scenes with friction, rolling resistance
 //! or adhesion (frictionless scenes run the branch-free `hertz_contact` instead):
 //!
-//! - normal force: Hertz with damping (`hertz.rs`), or JKR adhesion (`jkr.rs`) plus the
+//! - normal force: Hertz with damping (`laws/hertz.rs`), or JKR adhesion (`laws/jkr.rs`) plus the
 //!   same damping, with the JKR contact hysteresis (forms at touching, breaks at
 //!   -delta_s);
-//! - tangential force: Coulomb friction with a tangential spring (`friction.rs`);
-//! - rolling resistance torque (`rolling.rs`);
+//! - tangential force: Coulomb friction with a tangential spring (`laws/friction.rs`);
+//! - rolling resistance torque (`laws/rolling.rs`);
 //!
 //! between particles and with walls. A contact's history (tangential spring, rolling
 //! displacement, JKR contact flag) lives in the contact store (`ContactHistory` for
@@ -27,17 +27,18 @@ use grainflow_components::{
 use rayon::prelude::*;
 use wide::{f64x4, CmpGe, CmpGt, CmpLt};
 
-use crate::friction::coulomb_tangential_force;
-use crate::hertz::{
-    deeper, hertz_normal_force, ConstantDamping, NormalDamping, RestitutionDamping,
+use super::deeper;
+use crate::contact::laws::friction::coulomb_tangential_force;
+use crate::contact::laws::hertz::{
+    hertz_normal_force, ConstantDamping, NormalDamping, RestitutionDamping,
 };
-use crate::jkr::{
+use crate::contact::laws::jkr::{
     jkr_contact_radius, jkr_critical_separation, jkr_equilibrium_radius, jkr_force_at_radius,
 };
+use crate::contact::laws::rolling::{rolling_resistance_force, rolling_velocity};
+use crate::contact::walls::WallLanes;
 use crate::real::{gather, group_masks, transpose4, Real, V3};
-use crate::rolling::{rolling_resistance_force, rolling_velocity};
 use crate::team::StaticSplit;
-use crate::walls::WallLanes;
 use crate::{row_chunks, Rows, CHUNK};
 
 /// Whether the scene needs this system (some pair has friction, rolling or adhesion).
