@@ -384,7 +384,8 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             .collect(),
     };
     let walls = walls(scene, &material_index);
-    let particles = place_particles(scene, path, &walls, &materials_list, &material_index)?;
+    let (particles, clumps) =
+        place_particles(scene, path, &walls, &materials_list, &material_index)?;
     // Every particle must start on the particle side of every wall.
     for i in 0..particles.len() {
         let p = [
@@ -613,6 +614,9 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
             ..Default::default()
         });
     }
+    if let Some(clumps) = clumps {
+        world.insert_resource(clumps);
+    }
     world.insert_resource(particles);
     Ok(world)
 }
@@ -715,7 +719,7 @@ fn place_particles(
     walls: &Walls,
     materials: &[Material],
     material_index: &dyn Fn(&str) -> u16,
-) -> Result<Particles, SceneError> {
+) -> Result<(Particles, Option<Clumps>), SceneError> {
     let mut p = Particles::default();
     let mut next_id = 0u32;
     for s in &scene.spheres {
@@ -731,11 +735,45 @@ fn place_particles(
         });
         next_id += 1;
     }
+    let uses_clumps = !scene.clumps.is_empty() || scene.blocks.iter().any(|b| b.clump.is_some());
+    let mut clumps = uses_clumps.then(|| Clumps {
+        types: crate::clumps::clump_types(&scene.clump_types, materials, material_index),
+        ..Default::default()
+    });
     let mut rng = scene.simulation.seed;
+    if let Some(clumps) = &mut clumps {
+        let mut orientations = scene.simulation.seed ^ 0x0C1D_0B0D;
+        for c in &scene.clumps {
+            let kind = crate::clumps::type_index(&scene.clump_types, &c.kind).expect("validated");
+            let q = crate::clumps::spec_orientation(c, &mut orientations);
+            let state = crate::clumps::spec_state(c);
+            crate::clumps::add_clump(clumps, &mut p, kind as u16, q, state, &mut next_id);
+        }
+    }
     for b in &scene.blocks {
-        let m = material_index(&b.material);
-        let a = b.spacing.unwrap_or(2.1 * b.radius);
-        let amp = b.jitter * 0.5 * (a - 2.0 * b.radius);
+        // A block of spheres of one radius, or of clumps of one type (reach: the bounding
+        // radius about the centre of mass).
+        let kind = b
+            .clump
+            .as_ref()
+            .map(|c| crate::clumps::type_index(&scene.clump_types, c).expect("validated") as u16);
+        let (m, reach) = match (kind, &clumps) {
+            (Some(k), Some(c)) => {
+                let ty = &c.types[k as usize];
+                let reach = ty
+                    .members
+                    .iter()
+                    .map(|m| m.offset.length() + m.radius)
+                    .fold(0.0, f64::max);
+                (ty.material, reach)
+            }
+            _ => (
+                material_index(b.material.as_deref().expect("validated block")),
+                b.radius.expect("validated block"),
+            ),
+        };
+        let a = b.spacing.unwrap_or(2.1 * reach);
+        let amp = b.jitter * 0.5 * (a - 2.0 * reach).max(0.0);
         let n = [0, 1, 2].map(|d| ((b.max[d] - b.min[d]) / a).floor() as usize + 1);
         let mut placed = 0u64;
         'sites: for iz in 0..n[2] {
@@ -755,21 +793,35 @@ fn place_particles(
                     if b.inside_walls
                         && walls.list.iter().any(|w| {
                             let (dist, _) = wall_distance(&w.shape, pos);
-                            dist < b.radius || wall_contains(&w.shape, pos) == Some(false)
+                            dist < reach || wall_contains(&w.shape, pos) == Some(false)
                         })
                     {
                         continue;
                     }
-                    p.push(NewParticle {
-                        id: next_id,
-                        material: m,
-                        radius: b.radius,
-                        density: materials[m as usize].density,
-                        position: pos,
-                        velocity: b.velocity,
-                        angular_velocity: [0.0; 3],
-                    });
-                    next_id += 1;
+                    match (kind, &mut clumps) {
+                        (Some(k), Some(clumps)) => {
+                            let q = crate::clumps::random_rotation(&mut rng);
+                            let state = BodyState {
+                                position: glam::DVec3::from_array(pos),
+                                velocity: glam::DVec3::from_array(b.velocity),
+                                orientation: glam::DQuat::IDENTITY,
+                                angular_velocity: glam::DVec3::ZERO,
+                            };
+                            crate::clumps::add_clump(clumps, &mut p, k, q, state, &mut next_id);
+                        }
+                        _ => {
+                            p.push(NewParticle {
+                                id: next_id,
+                                material: m,
+                                radius: reach,
+                                density: materials[m as usize].density,
+                                position: pos,
+                                velocity: b.velocity,
+                                angular_velocity: [0.0; 3],
+                            });
+                            next_id += 1;
+                        }
+                    }
                     placed += 1;
                 }
             }
@@ -795,5 +847,5 @@ fn place_particles(
             next_id += 1;
         }
     }
-    Ok(p)
+    Ok((p, clumps))
 }

@@ -4,6 +4,7 @@ pub mod build;
 pub mod checkpoint;
 pub mod cli;
 pub mod cloud;
+pub mod clumps;
 pub mod excavation;
 pub mod fluid;
 pub mod lammps;

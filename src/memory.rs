@@ -48,13 +48,21 @@ pub fn scene_memory(scene: &Scene) -> Vec<MemoryItem> {
     if !scene.spheres.is_empty() {
         items.push(particles("spheres".into(), scene.spheres.len() as f64));
     }
+    for (k, c) in scene.clumps.iter().enumerate() {
+        let (_, members) = crate::clumps::reach_and_members(&scene.clump_types, &c.kind);
+        items.push(particles(format!("clumps[{k}]"), members as f64));
+    }
     for (k, b) in scene.blocks.iter().enumerate() {
-        let a = b.spacing.unwrap_or(2.1 * b.radius);
+        let (reach, per_site) = match &b.clump {
+            Some(c) => crate::clumps::reach_and_members(&scene.clump_types, c),
+            None => (b.radius.expect("validated block"), 1),
+        };
+        let a = b.spacing.unwrap_or(2.1 * reach);
         let sites: f64 = (0..3)
             .map(|d| ((b.max[d] - b.min[d]) / a).floor().max(0.0) + 1.0)
             .product();
         let sites = b.count.map_or(sites, |c| sites.min(c as f64));
-        items.push(particles(format!("blocks[{k}]"), sites));
+        items.push(particles(format!("blocks[{k}]"), sites * per_site as f64));
     }
     for (k, i) in scene.inflows.iter().enumerate() {
         items.push(particles(format!("inflows[{k}].total"), i.total as f64));

@@ -55,6 +55,12 @@ pub struct Scene {
     pub spheres: Vec<SphereSpec>,
     #[serde(default)]
     pub blocks: Vec<BlockSpec>,
+    /// Rigid particle types made of member spheres.
+    #[serde(default)]
+    pub clump_types: Vec<crate::clumps::ClumpTypeSpec>,
+    /// Clumps placed one by one.
+    #[serde(default)]
+    pub clumps: Vec<crate::clumps::ClumpSpec>,
     #[serde(default)]
     pub lammps: Vec<LammpsSpec>,
     #[serde(default)]
@@ -728,11 +734,18 @@ pub struct SphereSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BlockSpec {
-    pub material: String,
-    pub radius: f64,
+    /// Material and radius of the spheres (a block of spheres).
+    #[serde(default)]
+    pub material: Option<String>,
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// A clump type instead: every site gets a clump of this type, randomly oriented.
+    #[serde(default)]
+    pub clump: Option<String>,
     pub min: [f64; 3],
     pub max: [f64; 3],
-    /// Lattice spacing, m (default 2.1 radius).
+    /// Lattice spacing, m (default 2.1 radius; for clumps 2.1 times their bounding
+    /// radius).
     #[serde(default)]
     pub spacing: Option<f64>,
     /// Random displacement of each site, as a fraction of (spacing - 2 radius)/2.
@@ -815,6 +828,7 @@ impl Scene {
     pub fn has_particles(&self) -> bool {
         !(self.spheres.is_empty()
             && self.blocks.is_empty()
+            && self.clumps.is_empty()
             && self.lammps.is_empty()
             && self.inflows.is_empty()
             && self.walls.is_empty())
@@ -1531,27 +1545,58 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
         finite3(f("velocity"), p.velocity)?;
         finite3(f("angular_velocity"), p.angular_velocity)?;
     }
+    let material_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
+    crate::clumps::validate(&s.clump_types, &s.clumps, &material_names)?;
     for (k, b) in s.blocks.iter().enumerate() {
         let f = |name: &str| format!("blocks[{k}].{name}");
-        known_material(s, f("material"), &b.material)?;
-        positive(f("radius"), b.radius)?;
+        let radius = match (&b.clump, &b.material, b.radius) {
+            (Some(c), None, None) => {
+                crate::clumps::type_index(&s.clump_types, c).map_err(|m| (f("clump"), m))?;
+                None
+            }
+            (Some(_), _, _) => {
+                let field = if b.material.is_some() {
+                    "material"
+                } else {
+                    "radius"
+                };
+                return Err((
+                    f(field),
+                    "expected no material or radius in a block of clumps (its clump type gives them)".into(),
+                ));
+            }
+            (None, Some(material), Some(radius)) => {
+                known_material(s, f("material"), material)?;
+                positive(f("radius"), radius)?;
+                Some(radius)
+            }
+            (None, None, _) => {
+                return Err((
+                    f("material"),
+                    "expected the spheres' `material` and `radius`, or a `clump` type".into(),
+                ))
+            }
+            (None, Some(_), None) => {
+                return Err((f("radius"), "expected the spheres' radius".into()))
+            }
+        };
         finite3(f("min"), b.min)?;
         finite3(f("max"), b.max)?;
         if (0..3).any(|d| b.max[d] < b.min[d]) {
             return Err((f("max"), "expected max >= min in every coordinate".into()));
         }
-        if let Some(a) = b.spacing {
-            if a.partial_cmp(&(2.0 * b.radius))
+        if let (Some(a), Some(radius)) = (b.spacing, radius) {
+            if a.partial_cmp(&(2.0 * radius))
                 .is_none_or(|o| o == std::cmp::Ordering::Less)
             {
                 return Err((
                     f("spacing"),
-                    format!(
-                        "expected a spacing >= 2 radius = {}, got {a}",
-                        2.0 * b.radius
-                    ),
+                    format!("expected a spacing >= 2 radius = {}, got {a}", 2.0 * radius),
                 ));
             }
+        }
+        if let Some(a) = b.spacing {
+            positive(f("spacing"), a)?;
         }
         finite3(f("velocity"), b.velocity)?;
         if !(0.0..=1.0).contains(&b.jitter) {

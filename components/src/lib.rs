@@ -7,6 +7,7 @@
 //! known to the neighbour-list or insertion systems.
 
 pub mod clock;
+pub mod clump;
 pub mod contact_law;
 pub mod coupling;
 pub mod energy;
@@ -22,6 +23,7 @@ pub mod sinks;
 pub mod walls;
 
 pub use clock::SimClock;
+pub use clump::{BodyAux, BodyState, ClumpMember, ClumpType, Clumps};
 pub use contact_law::{
     AdhesionLaw, ContactLaw, ContactLaws, FrictionLaw, HistoryLayout, RollingLaw,
     TangentialStiffness, WallHistory,

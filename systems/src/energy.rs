@@ -15,10 +15,12 @@
 //! potential of every overlapping pair and wall contact, c_n = (4/3) E* sqrt(R*) (the
 //! integral of F = c_n delta^(3/2); Johnson 1985, Contact Mechanics, eq. 4.22). The
 //! tangential springs' and rolling springs' energy is not counted (below a percent of
-//! the normal one at the seed's stiffness ratios).
+//! the normal one at the seed's stiffness ratios). A clump body counts as one rigid body,
+//! M V^2/2 + L.w/2 - M a_b . X, in place of its member rows (its members' contacts count
+//! as any sphere's).
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    BodyAcceleration, EnergyBalance, Materials, Particles, RunHealth, SimClock, VerletList,
+    BodyAcceleration, Clumps, EnergyBalance, Materials, Particles, RunHealth, SimClock, VerletList,
     WallList, Walls,
 };
 use rayon::prelude::*;
@@ -44,16 +46,26 @@ pub struct Energies {
 }
 
 /// The energies of `particles` with their pair and wall contacts; the particles with ids
-/// `>= counted_ids` also summed apart (kinetic plus potential). Per-chunk sums added in
-/// chunk order: the same value for any thread count.
+/// `>= counted_ids` also summed apart (kinetic plus potential); clump bodies in place of
+/// their members. Per-chunk sums added in chunk order: the same value for any thread
+/// count.
+#[allow(clippy::too_many_arguments)]
 pub fn mechanical_energies(
     particles: &Particles,
     body: &BodyAcceleration,
     materials: &Materials,
     list: &VerletList,
     walls: Option<(&Walls, &WallList)>,
+    clumps: Option<&Clumps>,
     counted_ids: u32,
 ) -> Energies {
+    let member = |id: u32| {
+        clumps.is_some_and(|c| {
+            c.body_of_id
+                .get(id as usize)
+                .is_some_and(|&b| b != u32::MAX)
+        })
+    };
     let n = particles.len();
     let [x, y, z] = &particles.position;
     let [vx, vy, vz] = &particles.velocity;
@@ -63,6 +75,13 @@ pub fn mechanical_energies(
         .map(|c| {
             let mut e = Energies::default();
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                e.elastic += pair_elastic_energy(particles, materials, list, i);
+                if let Some((walls, wl)) = walls {
+                    e.elastic += wall_elastic_energy(particles, materials, walls, wl, i);
+                }
+                if member(particles.id[i]) {
+                    continue;
+                }
                 let m = particles.mass(i);
                 let r = particles.radius[i];
                 let a = body.per_material[particles.material[i] as usize];
@@ -76,22 +95,48 @@ pub fn mechanical_energies(
                 if particles.id[i] >= counted_ids {
                     e.new_particles += kinetic + rotational + potential;
                 }
-                e.elastic += pair_elastic_energy(particles, materials, list, i);
-                if let Some((walls, wl)) = walls {
-                    e.elastic += wall_elastic_energy(particles, materials, walls, wl, i);
-                }
             }
             e
         })
         .collect();
-    parts.iter().fold(Energies::default(), |s, e| Energies {
-        kinetic: s.kinetic + e.kinetic,
-        rotational: s.rotational + e.rotational,
-        potential: s.potential + e.potential,
-        elastic: s.elastic + e.elastic,
-        new_particles: s.new_particles + e.new_particles,
-        lift: s.lift + e.lift,
-    })
+    let bodies = clumps.map_or(Energies::default(), |c| body_energies(c, body, counted_ids));
+    parts
+        .iter()
+        .chain([&bodies])
+        .fold(Energies::default(), |s, e| Energies {
+            kinetic: s.kinetic + e.kinetic,
+            rotational: s.rotational + e.rotational,
+            potential: s.potential + e.potential,
+            elastic: s.elastic + e.elastic,
+            new_particles: s.new_particles + e.new_particles,
+            lift: s.lift + e.lift,
+        })
+}
+
+/// The energies of the clump bodies (in body order), as [`mechanical_energies`] counts
+/// them.
+fn body_energies(clumps: &Clumps, body: &BodyAcceleration, counted_ids: u32) -> Energies {
+    let mut e = Energies::default();
+    for b in 0..clumps.len() {
+        let ty = &clumps.types[clumps.kind[b] as usize];
+        let a = glam::DVec3::from_array(body.per_material[ty.material as usize]);
+        let kinetic = 0.5 * ty.mass * clumps.velocity[b].length_squared();
+        let rotational = 0.5 * clumps.angular_momentum[b].dot(clumps.angular_velocity(b));
+        let potential = -ty.mass * a.dot(clumps.position[b]);
+        let reach = ty
+            .members
+            .iter()
+            .map(|m| m.offset.length() + m.radius)
+            .fold(0.0, f64::max);
+        e.kinetic += kinetic;
+        e.rotational += rotational;
+        e.potential += potential;
+        e.lift += ty.mass * reach * a.length();
+        if clumps.first_member[b] >= counted_ids {
+            e.new_particles += kinetic + rotational + potential;
+        }
+    }
+    e
 }
 
 /// Hertz potential (2/5) c_n delta^(5/2) of a contact with overlap `delta`, elastic
@@ -168,6 +213,7 @@ pub fn energy_monitor(
     walls: Option<Res<Walls>>,
     wall_list: Option<Res<WallList>>,
     clock: Res<SimClock>,
+    clumps: Option<Res<Clumps>>,
     mut balance: ResMut<EnergyBalance>,
     mut health: ResMut<RunHealth>,
 ) {
@@ -183,6 +229,7 @@ pub fn energy_monitor(
         &materials,
         &list,
         walls,
+        clumps.as_deref(),
         balance.counted_ids,
     );
     let top_id = particles.id.iter().max().map_or(0, |&id| id + 1);

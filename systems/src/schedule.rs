@@ -61,8 +61,9 @@ use crate::contact::{frictionless, walls, with_history};
 use crate::coupling::{has_blending, has_coupling};
 use crate::fluid::{has_fluid, FluidFlow};
 use crate::integrate::clamp::has_clamped;
+use crate::integrate::rigid_body::has_clumps;
 use crate::integrate::rotation::has_rotation;
-use crate::integrate::{clamp, gear, rotation, verlet};
+use crate::integrate::{clamp, gear, rigid_body, rotation, verlet};
 use crate::neighbour::verlet_list;
 use crate::{coupling, energy, fluid, inflow, monitor, rows, sinks};
 use grainflow_components::{Clamped, Coupling, HydroForces, Rotation};
@@ -280,6 +281,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "clump_predict",
+        set: StepSet::Predict,
+        phase: Phase::Step,
+        wanted: has_clumps,
+        add: |s, set| {
+            s.add_systems(rigid_body::clump_predict.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "hold_clamped_predicted",
         set: StepSet::Predict,
         phase: Phase::Step,
@@ -358,6 +368,15 @@ pub const REGISTRY: &[SystemEntry] = &[
         wanted: has_coupling,
         add: |s, set| {
             s.add_systems(rows::permute_rows::<HydroForces>.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "clump_member_rows",
+        set: StepSet::Reorder,
+        phase: Phase::Both,
+        wanted: has_clumps,
+        add: |s, set| {
+            s.add_systems(rigid_body::clump_member_rows.in_set(set));
         },
     },
     SystemEntry {
@@ -487,6 +506,24 @@ pub const REGISTRY: &[SystemEntry] = &[
         },
     },
     SystemEntry {
+        name: "clump_correct",
+        set: StepSet::Correct,
+        phase: Phase::Step,
+        wanted: has_clumps,
+        add: |s, set| {
+            s.add_systems(rigid_body::clump_correct.in_set(set));
+        },
+    },
+    SystemEntry {
+        name: "clump_start",
+        set: StepSet::Correct,
+        phase: Phase::Startup,
+        wanted: has_clumps,
+        add: |s, set| {
+            s.add_systems(rigid_body::clump_start.in_set(set));
+        },
+    },
+    SystemEntry {
         name: "advance_clock",
         set: StepSet::Correct,
         phase: Phase::Step,
@@ -528,9 +565,14 @@ pub const REGISTRY: &[SystemEntry] = &[
 /// ([`grainflow_components::PredictAhead`]) in `world`: no system between the corrector and the next predictor
 /// may change the particle state or read it on every step. So no inflow (it inserts rows
 /// among particles it looks at), no held particles (put back on their path after the
-/// corrector) and no fluid coupling (its recorder reads the particles every step).
+/// corrector), no clumps (their members are placed after the corrector) and no fluid
+/// coupling (its recorder reads the particles every step).
 pub fn corrector_may_predict_ahead(world: &World) -> bool {
-    has_dem(world) && !inflow::has_inflow(world) && !has_clamped(world) && !has_coupling(world)
+    has_dem(world)
+        && !inflow::has_inflow(world)
+        && !has_clamped(world)
+        && !has_clumps(world)
+        && !has_coupling(world)
 }
 
 /// Build the schedule of the `sets` (in this order) for `world` from `REGISTRY` and the

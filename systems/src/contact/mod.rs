@@ -4,6 +4,7 @@
 //! `with_history` (friction, rolling resistance, adhesion, with the contact store).
 pub mod frictionless;
 pub mod laws;
+pub mod shapes;
 pub mod walls;
 pub mod with_history;
 

@@ -185,7 +185,7 @@ impl Largest {
 }
 
 /// The Taylor steps of the predictor: dt, dt^2/2, dt^3/6, dt^4/24.
-fn predictor_steps(dt: f64) -> [f64; 4] {
+pub(crate) fn predictor_steps(dt: f64) -> [f64; 4] {
     [
         dt,
         dt * dt / 2.0,
@@ -198,7 +198,13 @@ fn predictor_steps(dt: f64) -> [f64; 4] {
 /// v += a dt + b dt^2/2 + c dt^3/6 (`steps` from [`predictor_steps`]); returns the move
 /// of x.
 #[inline(always)]
-fn predict_row([x, v]: [&mut f64; 2], a: f64, b: f64, c: f64, [dt, h2, h3, h4]: [f64; 4]) -> f64 {
+pub(crate) fn predict_row(
+    [x, v]: [&mut f64; 2],
+    a: f64,
+    b: f64,
+    c: f64,
+    [dt, h2, h3, h4]: [f64; 4],
+) -> f64 {
     let dx = *v * dt + a * h2 + b * h3 + c * h4;
     *x += dx;
     *v += a * dt + b * h2 + c * h3;
@@ -207,7 +213,7 @@ fn predict_row([x, v]: [&mut f64; 2], a: f64, b: f64, c: f64, [dt, h2, h3, h4]: 
 
 /// The corrector's factors of Delta (module doc) and the steps of the predicted
 /// derivatives.
-struct CorrectorCoefficients {
+pub(crate) struct CorrectorCoefficients {
     dt: f64,
     h2: f64,
     x: f64,
@@ -217,7 +223,7 @@ struct CorrectorCoefficients {
 }
 
 impl CorrectorCoefficients {
-    fn new(dt: f64, alpha0: f64) -> Self {
+    pub(crate) fn new(dt: f64, alpha0: f64) -> Self {
         Self {
             dt,
             h2: dt * dt / 2.0,
@@ -273,7 +279,11 @@ fn correct_chunk<const AHEAD: bool>(
 /// from the predicted a_p = a + b dt + c dt^2/2 and b_p = b + c dt (see the module doc);
 /// returns Delta = target - a_p.
 #[inline(always)]
-fn correct_row([x, v, a, b, c]: [&mut f64; 5], target: f64, k: &CorrectorCoefficients) -> f64 {
+pub(crate) fn correct_row(
+    [x, v, a, b, c]: [&mut f64; 5],
+    target: f64,
+    k: &CorrectorCoefficients,
+) -> f64 {
     let (a_p, b_p) = predicted_derivatives(*a, *b, *c, k.dt, k.h2);
     let delta = target - a_p;
     *x += k.x * delta;

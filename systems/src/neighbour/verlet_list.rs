@@ -9,8 +9,8 @@
 //! neighbours are close in memory.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder, ScatterPlan,
-    Sinks, StepMotion, VerletList,
+    Clumps, ContactHistory, NeighbourSettings, PairList, Particles, PerParticle, Reorder,
+    ScatterPlan, Sinks, StepMotion, VerletList,
 };
 use rayon::prelude::*;
 
@@ -19,6 +19,7 @@ use crate::team::StaticSplit;
 use crate::{row_chunks, CHUNK};
 
 /// Rebuild the Verlet list when needed, re-sorting particles in cell order.
+#[allow(clippy::too_many_arguments)]
 pub fn verlet_list(
     mut particles: ResMut<Particles>,
     mut list: ResMut<VerletList>,
@@ -27,6 +28,7 @@ pub fn verlet_list(
     history: Option<ResMut<ContactHistory>>,
     mut motion: ResMut<StepMotion>,
     sinks: Option<ResMut<Sinks>>,
+    clumps: Option<Res<Clumps>>,
 ) {
     let _span = tracing::info_span!("verlet_list").entered();
     reorder.perm = None;
@@ -54,6 +56,7 @@ pub fn verlet_list(
             &settings,
             &mut reorder,
             leaving.as_deref().unwrap_or(&[]),
+            clumps.as_deref().map(|c| &c.body_of_id[..]),
         );
     }
     let inner = narrowing_due(&mut list, settings.skin, step_motion, stale);
@@ -192,6 +195,7 @@ fn rebuild(
     settings: &NeighbourSettings,
     reorder: &mut Reorder,
     leaving: &[u32],
+    body_of_id: Option<&[u32]>,
 ) {
     let _span = tracing::info_span!("verlet_rebuild").entered();
     let keep = (!leaving.is_empty()).then(|| kept_rows(particles.len(), leaving));
@@ -225,6 +229,7 @@ fn rebuild(
         &order.cell_start,
         members.as_deref(),
         settings.skin,
+        body_of_id,
         list,
     );
     for (reference, position) in list.reference.iter_mut().zip(&particles.position) {
@@ -508,7 +513,10 @@ impl Stencil {
 /// `members` lists the rows of each cell (`cell_start` order); `None` when the rows are
 /// themselves in cell order (just re-sorted): a cell's members are then a range of rows,
 /// the runs of cells all before the particle's cell are not read at all
-/// ([`Stencil::fill`]), and the others are scanned from past row `i`.
+/// ([`Stencil::fill`]), and the others are scanned from past row `i`. With clumps
+/// (`body_of_id`: the body of every particle id, `u32::MAX` for a free sphere), two
+/// members of one body are no pair.
+#[allow(clippy::too_many_arguments)]
 fn build_half_list(
     particles: &Particles,
     grid: &CellGrid,
@@ -516,9 +524,11 @@ fn build_half_list(
     cell_start: &[u32],
     members: Option<&[u32]>,
     skin: f64,
+    body_of_id: Option<&[u32]>,
     list: &mut VerletList,
 ) {
     let n = particles.len();
+    let id = &particles.id;
     let [x, y, z] = &particles.position;
     let r = &particles.radius;
     let scan = tracing::info_span!("pair_scan").entered();
@@ -566,6 +576,20 @@ fn build_half_list(
                                 }
                             }
                         }
+                    }
+                }
+                if let Some(body) = body_of_id {
+                    let of = |row: usize| body.get(id[row] as usize).copied().unwrap_or(u32::MAX);
+                    let own = of(i);
+                    if own != u32::MAX {
+                        let mut kept = before;
+                        for k in before..nbrs.len() {
+                            if of(nbrs[k] as usize) != own {
+                                nbrs[kept] = nbrs[k];
+                                kept += 1;
+                            }
+                        }
+                        nbrs.truncate(kept);
                     }
                 }
                 // Partners in ascending row order: pair order follows memory order.
