@@ -6,7 +6,7 @@
 //! integrator derivatives, rotation, Verlet list with its reference positions and
 //! narrowing state, wall list, contact store and wall-contact history (tangential
 //! springs, rolling displacements, JKR flags), inflow progress and random state, wall
-//! removal flags, sinks, the health and energy monitors, the flow's time levels with its
+//! removal flags, sinks, the clump bodies, the health and energy monitors, the flow's time levels with its
 //! prescribed and penalised faces, the coupling's markers, held forces and log, the clock
 //! and the output timetable.
 //! What the scene defines and the run never changes (materials, contact laws, wall
@@ -220,7 +220,55 @@ macro_rules! fields_state {
     };
 }
 
+impl State for glam::DVec3 {
+    fn save(&self, out: &mut Vec<u8>) {
+        self.to_array().save(out);
+    }
+    fn load(&mut self, input: &mut Reader) -> Result<(), String> {
+        let mut v = [0.0; 3];
+        v.load(input)?;
+        *self = glam::DVec3::from_array(v);
+        Ok(())
+    }
+}
+
+impl State for glam::DQuat {
+    fn save(&self, out: &mut Vec<u8>) {
+        self.to_array().save(out);
+    }
+    fn load(&mut self, input: &mut Reader) -> Result<(), String> {
+        let mut v = [0.0; 4];
+        v.load(input)?;
+        *self = glam::DQuat::from_array(v);
+        Ok(())
+    }
+}
+
 fields_state!(SimClock { step, time, dt });
+fields_state!(BodyAux {
+    acc,
+    torque_rate,
+    start_orientation,
+    start_momentum,
+    half_velocity,
+    half_momentum
+});
+// The clump types are rebuilt from the scene.
+fields_state!(Clumps {
+    kind,
+    position,
+    velocity,
+    orientation,
+    angular_momentum,
+    force,
+    torque,
+    aux,
+    first_member,
+    body_of_id,
+    member_row,
+    member_start,
+    rows_stale
+});
 fields_state!(Particles {
     id,
     material,
@@ -564,7 +612,7 @@ fn apply<T: Resource<Mutability = bevy_ecs::component::Mutable> + State>(
 }
 
 /// Every saved resource type, in a fixed order.
-fn resources() -> [ResourceFn; 23] {
+fn resources() -> [ResourceFn; 24] {
     [
         apply::<SimClock>,
         apply::<Particles>,
@@ -573,6 +621,7 @@ fn resources() -> [ResourceFn; 23] {
         apply::<PredictAhead>,
         apply::<Rotation>,
         apply::<Clamped>,
+        apply::<Clumps>,
         apply::<VerletList>,
         apply::<StepMotion>,
         apply::<Reorder>,

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use bevy_ecs::prelude::*;
-use grainflow_components::{Particles, RunHealth, SimClock};
+use grainflow_components::{Clumps, Particles, RunHealth, SimClock};
 use grainflow_fluid::Grid;
 use grainflow_systems::fluid::FluidFlow;
 
@@ -17,6 +17,8 @@ pub struct Frame {
     pub step: u64,
     pub time: f64,
     pub particles: usize,
+    /// Whether the frame has the clump datasets (`orientation`, `clump`).
+    pub clumps: bool,
 }
 
 /// The open output file and the output timetable.
@@ -104,6 +106,7 @@ impl ParticleOutput {
                     .and_then(|a| a.read_scalar())
                     .map_err(bad)?,
                 particles: group.dataset("id").map_err(bad)?.size(),
+                clumps: group.link_exists("orientation"),
             });
         }
         frames.sort_by_key(|f| f.step);
@@ -160,10 +163,15 @@ impl ParticleOutput {
     }
 
     /// Write the particles as frame `clock.step`, rows sorted by id, and the flow when
-    /// there is one.
+    /// there is one. With clumps, also every row's orientation (its body's, as a
+    /// quaternion w, x, y, z of the scene's body frame; free spheres the identity), its
+    /// body's `axis` (the principal axis of the smallest moment, the long axis of an
+    /// elongated clump, in the world; zero for free spheres: the field ParaView glyphs)
+    /// and body (`clump`: the body index, `u32::MAX` for a free sphere).
     pub fn write_frame(
         &mut self,
         particles: &Particles,
+        clumps: Option<&Clumps>,
         flow: Option<&FluidFlow>,
         clock: &SimClock,
     ) -> Result<(), String> {
@@ -232,11 +240,59 @@ impl ParticleOutput {
             .map_err(h5)?
             .write_raw(&radius)
             .map_err(h5)?;
+        if let Some(clumps) = clumps {
+            let body: Vec<u32> = ids
+                .iter()
+                .map(|&id| {
+                    clumps
+                        .body_of_id
+                        .get(id as usize)
+                        .copied()
+                        .unwrap_or(u32::MAX)
+                })
+                .collect();
+            let mut orientation = Vec::with_capacity(4 * n);
+            let mut axis = Vec::with_capacity(3 * n);
+            for &b in &body {
+                let (q, a) = match b {
+                    u32::MAX => (glam::DQuat::IDENTITY, glam::DVec3::ZERO),
+                    b => {
+                        let (b, principal) = (b as usize, clumps.orientation[b as usize]);
+                        let frame = clumps.types[clumps.kind[b] as usize].frame;
+                        (principal * frame, principal * glam::DVec3::X)
+                    }
+                };
+                orientation.extend([q.w, q.x, q.y, q.z]);
+                axis.extend(a.to_array());
+            }
+            group
+                .new_dataset::<f64>()
+                .shape([n, 3])
+                .create("axis")
+                .map_err(h5)?
+                .write_raw(&axis)
+                .map_err(h5)?;
+            group
+                .new_dataset::<f64>()
+                .shape([n, 4])
+                .create("orientation")
+                .map_err(h5)?
+                .write_raw(&orientation)
+                .map_err(h5)?;
+            group
+                .new_dataset::<u32>()
+                .shape([n])
+                .create("clump")
+                .map_err(h5)?
+                .write_raw(&body)
+                .map_err(h5)?;
+        }
         self.file.flush().map_err(h5)?;
         self.frames.push(Frame {
             step: clock.step,
             time: clock.time,
             particles: n,
+            clumps: clumps.is_some(),
         });
         self.write_xdmf()?;
         match flow {
@@ -354,6 +410,15 @@ impl ParticleOutput {
             ] {
                 let _ = writeln!(x, "    <Attribute Name=\"{name}\" AttributeType=\"{kind}\" Center=\"Node\">\n     <DataItem Dimensions=\"{dims}\" NumberType=\"{ty}\" Precision=\"{prec}\" Format=\"HDF\">{g}/{name}</DataItem>\n    </Attribute>");
             }
+            if f.clumps {
+                for (name, kind, dims, ty, prec) in [
+                    ("orientation", "Matrix", format!("{n} 4"), "Float", 8),
+                    ("axis", "Vector", format!("{n} 3"), "Float", 8),
+                    ("clump", "Scalar", format!("{n}"), "UInt", 4),
+                ] {
+                    let _ = writeln!(x, "    <Attribute Name=\"{name}\" AttributeType=\"{kind}\" Center=\"Node\">\n     <DataItem Dimensions=\"{dims}\" NumberType=\"{ty}\" Precision=\"{prec}\" Format=\"HDF\">{g}/{name}</DataItem>\n    </Attribute>");
+                }
+            }
             x.push_str("   </Grid>\n");
         }
         x.push_str("  </Grid>\n </Domain>\n</Xdmf>\n");
@@ -365,6 +430,7 @@ impl ParticleOutput {
 /// Output system: writes a frame when the output time has come and the step is healthy.
 pub fn write_particles(
     particles: Res<Particles>,
+    clumps: Option<Res<Clumps>>,
     flow: Option<Res<FluidFlow>>,
     clock: Res<SimClock>,
     health: Res<RunHealth>,
@@ -378,7 +444,7 @@ pub fn write_particles(
         while out.next_time <= clock.time {
             out.next_time += out.interval;
         }
-        if let Err(e) = out.write_frame(&particles, flow.as_deref(), &clock) {
+        if let Err(e) = out.write_frame(&particles, clumps.as_deref(), flow.as_deref(), &clock) {
             out.error = Some(e);
         }
     }

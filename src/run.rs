@@ -214,6 +214,7 @@ impl Simulation {
             out.next_time = out.interval;
             if let Err(e) = out.write_frame(
                 self.world.resource::<Particles>(),
+                self.world.get_resource::<grainflow_components::Clumps>(),
                 self.world.get_resource::<FluidFlow>(),
                 &clock,
             ) {
@@ -399,6 +400,7 @@ impl Simulation {
             if let Some(mut out) = self.world.remove_resource::<ParticleOutput>() {
                 if let Err(e) = out.write_frame(
                     self.world.resource::<Particles>(),
+                    self.world.get_resource::<grainflow_components::Clumps>(),
                     self.world.get_resource::<FluidFlow>(),
                     &clock,
                 ) {
