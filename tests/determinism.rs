@@ -301,7 +301,7 @@ jitter = 1.0
 velocity = [0.3, -0.2, -1.0]
 count = 600
 "#;
-    let scene = write_scene(dir.path(), "determinism-clumps.toml", &text);
+    let scene = write_scene(dir.path(), "determinism-clumps.toml", text);
     let one = run(&scene, &dir.path().join("t1"), 1);
     let two = run(&scene, &dir.path().join("t2"), 2);
     let n = one.summary["particles"].as_u64().expect("particle count");
