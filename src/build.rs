@@ -544,37 +544,60 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
         let list = scene
             .inflows
             .iter()
-            .map(|i| Inflow {
-                material: material_index(&i.material),
-                rate: i.rate,
-                start: i.start,
-                stop: i.stop.unwrap_or(f64::INFINITY),
-                total: i.total,
-                interval: i.interval.unwrap_or(0.01),
-                region: match i.region {
-                    RegionSpec::Box { min, max } => InflowRegion::Box { min, max },
-                    RegionSpec::Cylinder {
-                        center,
-                        radius,
-                        bottom,
-                        top,
-                    } => InflowRegion::CylinderZ {
-                        center,
-                        radius,
-                        z_min: bottom,
-                        z_max: top,
+            .map(|i| {
+                // A clump inflow: the type's material, its bounding radius for the sites.
+                let clump = i.clump.as_ref().map(|c| {
+                    crate::clumps::type_index(&scene.clump_types, c).expect("validated") as u16
+                });
+                let (material, radii, fractions) = match (clump, &clumps) {
+                    (Some(k), Some(c)) => {
+                        let ty = &c.types[k as usize];
+                        let reach = ty
+                            .members
+                            .iter()
+                            .map(|m| m.offset.length() + m.radius)
+                            .fold(0.0, f64::max);
+                        (ty.material, vec![reach], vec![1.0])
+                    }
+                    _ => (
+                        material_index(i.material.as_deref().expect("validated inflow")),
+                        i.radii.clone(),
+                        i.fractions.clone(),
+                    ),
+                };
+                Inflow {
+                    material,
+                    clump,
+                    rate: i.rate,
+                    start: i.start,
+                    stop: i.stop.unwrap_or(f64::INFINITY),
+                    total: i.total,
+                    interval: i.interval.unwrap_or(0.01),
+                    region: match i.region {
+                        RegionSpec::Box { min, max } => InflowRegion::Box { min, max },
+                        RegionSpec::Cylinder {
+                            center,
+                            radius,
+                            bottom,
+                            top,
+                        } => InflowRegion::CylinderZ {
+                            center,
+                            radius,
+                            z_min: bottom,
+                            z_max: top,
+                        },
                     },
-                },
-                radii: i.radii.clone(),
-                fractions: i.fractions.clone(),
-                velocity: i.velocity,
-                velocity_jitter: i.velocity_jitter,
-                inserted: 0,
-                next_time: i.start,
-                rng_state: {
-                    seed = seed.wrapping_add(0x9E37_79B9);
-                    seed
-                },
+                    radii,
+                    fractions,
+                    velocity: i.velocity,
+                    velocity_jitter: i.velocity_jitter,
+                    inserted: 0,
+                    next_time: i.start,
+                    rng_state: {
+                        seed = seed.wrapping_add(0x9E37_79B9);
+                        seed
+                    },
+                }
             })
             .collect();
         world.insert_resource(Inflows {
@@ -735,7 +758,9 @@ fn place_particles(
         });
         next_id += 1;
     }
-    let uses_clumps = !scene.clumps.is_empty() || scene.blocks.iter().any(|b| b.clump.is_some());
+    let uses_clumps = !scene.clumps.is_empty()
+        || scene.blocks.iter().any(|b| b.clump.is_some())
+        || scene.inflows.iter().any(|i| i.clump.is_some());
     let mut clumps = uses_clumps.then(|| Clumps {
         types: crate::clumps::clump_types(&scene.clump_types, materials, material_index),
         ..Default::default()
@@ -747,7 +772,14 @@ fn place_particles(
             let kind = crate::clumps::type_index(&scene.clump_types, &c.kind).expect("validated");
             let q = crate::clumps::spec_orientation(c, &mut orientations);
             let state = crate::clumps::spec_state(c);
-            crate::clumps::add_clump(clumps, &mut p, kind as u16, q, state, &mut next_id);
+            grainflow_systems::integrate::rigid_body::insert_clump(
+                clumps,
+                &mut p,
+                kind as u16,
+                q,
+                state,
+                &mut next_id,
+            );
         }
     }
     for b in &scene.blocks {
@@ -800,14 +832,22 @@ fn place_particles(
                     }
                     match (kind, &mut clumps) {
                         (Some(k), Some(clumps)) => {
-                            let q = crate::clumps::random_rotation(&mut rng);
+                            let q =
+                                grainflow_systems::integrate::rigid_body::random_rotation(&mut rng);
                             let state = BodyState {
                                 position: glam::DVec3::from_array(pos),
                                 velocity: glam::DVec3::from_array(b.velocity),
                                 orientation: glam::DQuat::IDENTITY,
                                 angular_velocity: glam::DVec3::ZERO,
                             };
-                            crate::clumps::add_clump(clumps, &mut p, k, q, state, &mut next_id);
+                            grainflow_systems::integrate::rigid_body::insert_clump(
+                                clumps,
+                                &mut p,
+                                k,
+                                q,
+                                state,
+                                &mut next_id,
+                            );
                         }
                         _ => {
                             p.push(NewParticle {

@@ -3,9 +3,8 @@
 //! the clumps of `[[blocks]]` with a `clump` type; their checks and the rigid bodies they
 //! make.
 use glam::{DQuat, DVec3};
-use grainflow_components::{BodyState, ClumpType, Clumps, Material, NewParticle, Particles};
+use grainflow_components::{BodyState, ClumpType, Material};
 use grainflow_systems::contact::shapes::{rigid_type, SHAPES};
-use grainflow_systems::inflow::next_f64;
 use serde::Deserialize;
 
 /// One member sphere of a clump type: offset from the body origin, radius.
@@ -165,58 +164,6 @@ pub fn clump_types(
         .collect()
 }
 
-/// A uniformly random rotation (Shoemake 1992, Graphics Gems III: from three uniform
-/// numbers).
-pub fn random_rotation(rng: &mut u64) -> DQuat {
-    let (u1, u2, u3) = (next_f64(rng), next_f64(rng), next_f64(rng));
-    let tau = 2.0 * std::f64::consts::PI;
-    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
-    DQuat::from_xyzw(
-        a * (tau * u2).sin(),
-        a * (tau * u2).cos(),
-        b * (tau * u3).sin(),
-        b * (tau * u3).cos(),
-    )
-    .normalize()
-}
-
-/// Append a body of type `kind` with the scene-frame orientation `scene_q` at centre
-/// `state.position` to `clumps`, and its members to `particles` with the ids from
-/// `next_id` on.
-pub fn add_clump(
-    clumps: &mut Clumps,
-    particles: &mut Particles,
-    kind: u16,
-    scene_q: DQuat,
-    mut state: BodyState,
-    next_id: &mut u32,
-) {
-    let ty = &clumps.types[kind as usize];
-    // Principal frame = scene frame turned by the type's frame: world = Q_s (p - c) =
-    // Q_s frame^-1 p'.
-    state.orientation = (scene_q * ty.frame.inverse()).normalize();
-    let w = state.angular_velocity;
-    for (k, m) in ty.members.iter().enumerate() {
-        let arm = state.orientation * m.offset;
-        let velocity = state.velocity + w.cross(arm);
-        // Contacts of a member see the body's mass (the damping's 1/m*): the member's
-        // density is the one that gives its sphere that mass.
-        let volume = 4.0 / 3.0 * std::f64::consts::PI * m.radius.powi(3);
-        particles.push(NewParticle {
-            id: *next_id + k as u32,
-            material: ty.material,
-            radius: m.radius,
-            density: ty.mass / volume,
-            position: (state.position + arm).to_array(),
-            velocity: velocity.to_array(),
-            angular_velocity: w.to_array(),
-        });
-    }
-    let first = *next_id;
-    *next_id += ty.members.len() as u32;
-    clumps.push(kind, state, first);
-}
-
 /// The body state of a clump spec (its orientation chosen by the caller).
 pub fn spec_state(c: &ClumpSpec) -> BodyState {
     BodyState {
@@ -231,7 +178,9 @@ pub fn spec_state(c: &ClumpSpec) -> BodyState {
 pub fn spec_orientation(c: &ClumpSpec, rng: &mut u64) -> DQuat {
     match c.orientation {
         Some([w, x, y, z]) => DQuat::from_xyzw(x, y, z, w).normalize(),
-        None if c.random_orientation => random_rotation(rng),
+        None if c.random_orientation => {
+            grainflow_systems::integrate::rigid_body::random_rotation(rng)
+        }
         None => DQuat::IDENTITY,
     }
 }

@@ -801,7 +801,12 @@ pub struct SinkSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InflowSpec {
-    pub material: String,
+    /// Material of the spheres (an inflow of spheres).
+    #[serde(default)]
+    pub material: Option<String>,
+    /// A clump type instead: clumps of this type, randomly oriented.
+    #[serde(default)]
+    pub clump: Option<String>,
     /// Particles per second.
     pub rate: f64,
     /// Total number of particles to insert.
@@ -814,8 +819,10 @@ pub struct InflowSpec {
     #[serde(default)]
     pub interval: Option<f64>,
     pub region: RegionSpec,
-    /// Radii table and their number fractions (summing to 1).
+    /// Radii table and their number fractions (summing to 1), for spheres.
+    #[serde(default)]
     pub radii: Vec<f64>,
+    #[serde(default)]
     pub fractions: Vec<f64>,
     #[serde(default)]
     pub velocity: [f64; 3],
@@ -1547,6 +1554,21 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
     }
     let material_names: Vec<String> = s.materials.iter().map(|m| m.name.clone()).collect();
     crate::clumps::validate(&s.clump_types, &s.clumps, &material_names)?;
+    let has_clumps = !s.clumps.is_empty()
+        || s.blocks.iter().any(|b| b.clump.is_some())
+        || s.inflows.iter().any(|i| i.clump.is_some());
+    if has_clumps && !s.sinks.is_empty() {
+        return Err((
+            "sinks".into(),
+            "sinks do not remove clumps yet: expected no sinks in a scene with clumps".into(),
+        ));
+    }
+    if has_clumps && s.fluid.as_ref().is_some_and(|f| f.has_grid()) {
+        return Err((
+            "fluid".into(),
+            "clumps are not coupled to a fluid grid yet: expected no fluid grid in a scene with clumps".into(),
+        ));
+    }
     for (k, b) in s.blocks.iter().enumerate() {
         let f = |name: &str| format!("blocks[{k}].{name}");
         let radius = match (&b.clump, &b.material, b.radius) {
@@ -1622,7 +1644,30 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
     }
     for (k, i) in s.inflows.iter().enumerate() {
         let f = |name: &str| format!("inflows[{k}].{name}");
-        known_material(s, f("material"), &i.material)?;
+        match (&i.clump, &i.material) {
+            (Some(c), None) => {
+                crate::clumps::type_index(&s.clump_types, c).map_err(|m| (f("clump"), m))?;
+                if !(i.radii.is_empty() && i.fractions.is_empty()) {
+                    return Err((
+                        f("radii"),
+                        "expected no radii or fractions in an inflow of clumps (its clump type gives them)".into(),
+                    ));
+                }
+            }
+            (Some(_), Some(_)) => {
+                return Err((
+                    f("material"),
+                    "expected no material in an inflow of clumps (its clump type gives it)".into(),
+                ))
+            }
+            (None, Some(material)) => known_material(s, f("material"), material)?,
+            (None, None) => {
+                return Err((
+                    f("material"),
+                    "expected the spheres' `material` (with `radii` and `fractions`), or a `clump` type".into(),
+                ))
+            }
+        }
         positive(f("rate"), i.rate)?;
         if let Some(v) = i.interval {
             positive(f("interval"), v)?;
@@ -1645,21 +1690,24 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
                 format!("expected a speed >= 0, got {}", i.velocity_jitter),
             ));
         }
-        if i.radii.is_empty() || i.radii.len() != i.fractions.len() {
-            return Err((
-                f("fractions"),
-                "expected one fraction per radius, and at least one radius".into(),
-            ));
-        }
-        for (n, r) in i.radii.iter().enumerate() {
-            positive(format!("inflows[{k}].radii[{n}]"), *r)?;
-        }
-        let sum: f64 = i.fractions.iter().sum();
-        if i.fractions.iter().any(|x| *x < 0.0) || (sum - 1.0).abs() > 1e-9 {
-            return Err((
-                f("fractions"),
-                format!("expected fractions >= 0 summing to 1, got sum {sum}"),
-            ));
+        // A clump inflow takes its sizes from the clump type.
+        if i.clump.is_none() {
+            if i.radii.is_empty() || i.radii.len() != i.fractions.len() {
+                return Err((
+                    f("fractions"),
+                    "expected one fraction per radius, and at least one radius".into(),
+                ));
+            }
+            for (n, r) in i.radii.iter().enumerate() {
+                positive(format!("inflows[{k}].radii[{n}]"), *r)?;
+            }
+            let sum: f64 = i.fractions.iter().sum();
+            if i.fractions.iter().any(|x| *x < 0.0) || (sum - 1.0).abs() > 1e-9 {
+                return Err((
+                    f("fractions"),
+                    format!("expected fractions >= 0 summing to 1, got sum {sum}"),
+                ));
+            }
         }
         match &i.region {
             RegionSpec::Box { min, max } => {

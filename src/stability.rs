@@ -46,8 +46,21 @@ pub fn estimate(
         sizes.push((particles.radius[i], particles.material[i]));
     }
     for f in &scene.inflows {
-        let m = scene.materials.iter().position(|x| x.name == f.material)? as u16;
-        sizes.extend(f.radii.iter().map(|&r| (r, m)));
+        match (&f.clump, &f.material) {
+            // A clump's members, with their material's density: a conservative bound (a
+            // member moves with the heavier body).
+            (Some(c), _) => {
+                let t =
+                    &scene.clump_types[crate::clumps::type_index(&scene.clump_types, c).ok()?];
+                let m = scene.materials.iter().position(|x| x.name == t.material)? as u16;
+                sizes.extend(t.spheres.iter().map(|s| (s.radius, m)));
+            }
+            (None, Some(material)) => {
+                let m = scene.materials.iter().position(|x| &x.name == material)? as u16;
+                sizes.extend(f.radii.iter().map(|&r| (r, m)));
+            }
+            (None, None) => return None,
+        }
     }
     if sizes.is_empty() {
         return None;

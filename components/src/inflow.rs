@@ -20,6 +20,9 @@ pub enum InflowRegion {
 #[derive(Debug, Clone)]
 pub struct Inflow {
     pub material: u16,
+    /// A clump type (index into `Clumps::types`) instead of spheres: every site gets a
+    /// randomly oriented clump; `radii` then holds the clump's bounding radius.
+    pub clump: Option<u16>,
     pub rate: f64,
     pub start: f64,
     pub stop: f64,

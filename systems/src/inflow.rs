@@ -2,7 +2,8 @@
 //! lattice inside the inflow region, at the scene's rate.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Inflow, InflowRegion, Inflows, Materials, NewParticle, Particles, VerletList, Walls,
+    BodyState, Clumps, Inflow, InflowRegion, Inflows, Materials, NewParticle, Particles,
+    VerletList, Walls,
 };
 
 use crate::contact::walls::{wall_contains, wall_distance};
@@ -34,6 +35,7 @@ pub fn inflow_insertion(
     materials: Res<Materials>,
     mut list: ResMut<VerletList>,
     walls: Option<Res<Walls>>,
+    mut clumps: Option<ResMut<Clumps>>,
 ) {
     let t = clock.time;
     let Inflows {
@@ -61,6 +63,26 @@ pub fn inflow_insertion(
             let mut vel = flow.velocity;
             for v in vel.iter_mut() {
                 *v += j * (2.0 * next_f64(&mut flow.rng_state) - 1.0);
+            }
+            if let (Some(kind), Some(clumps)) = (flow.clump, clumps.as_deref_mut()) {
+                // A clump of the type, randomly oriented, its centre on the site.
+                let q = crate::integrate::rigid_body::random_rotation(&mut flow.rng_state);
+                let state = BodyState {
+                    position: glam::DVec3::from_array(site),
+                    velocity: glam::DVec3::from_array(vel),
+                    orientation: glam::DQuat::IDENTITY,
+                    angular_velocity: glam::DVec3::ZERO,
+                };
+                crate::integrate::rigid_body::insert_clump(
+                    clumps,
+                    &mut particles,
+                    kind,
+                    q,
+                    state,
+                    next_id,
+                );
+                flow.inserted += 1;
+                continue;
             }
             particles.push(NewParticle {
                 id: *next_id,

@@ -27,8 +27,8 @@ use bevy_ecs::prelude::*;
 use glam::{DQuat, DVec3};
 use grainflow_components::clump::angular_velocity;
 use grainflow_components::{
-    BodyAcceleration, Clumps, GearState, IntegratorKind, Particles, Reorder, Rotation, SimClock,
-    StepMotion,
+    BodyAcceleration, BodyState, Clumps, GearState, IntegratorKind, NewParticle, Particles,
+    Reorder, Rotation, SimClock, StepMotion,
 };
 
 use super::gear::{
@@ -61,6 +61,62 @@ pub fn turn(q: DQuat, l: DVec3, inertia: DVec3, dt: f64) -> DQuat {
         q = (q + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0)).normalize();
     }
     q
+}
+
+/// Append a body of type `kind` with the scene-frame orientation `scene_q` at centre
+/// `state.position` to `clumps`, and its members to `particles` with the ids from
+/// `next_id` on.
+pub fn insert_clump(
+    clumps: &mut Clumps,
+    particles: &mut Particles,
+    kind: u16,
+    scene_q: DQuat,
+    mut state: BodyState,
+    next_id: &mut u32,
+) {
+    let ty = &clumps.types[kind as usize];
+    // Principal frame = scene frame turned by the type's frame: world = Q_s (p - c) =
+    // Q_s frame^-1 p'.
+    state.orientation = (scene_q * ty.frame.inverse()).normalize();
+    let w = state.angular_velocity;
+    for (k, m) in ty.members.iter().enumerate() {
+        let arm = state.orientation * m.offset;
+        let velocity = state.velocity + w.cross(arm);
+        // Contacts of a member see the body's mass (the damping's 1/m*): the member's
+        // density is the one that gives its sphere that mass.
+        let volume = 4.0 / 3.0 * std::f64::consts::PI * m.radius.powi(3);
+        particles.push(NewParticle {
+            id: *next_id + k as u32,
+            material: ty.material,
+            radius: m.radius,
+            density: ty.mass / volume,
+            position: (state.position + arm).to_array(),
+            velocity: velocity.to_array(),
+            angular_velocity: w.to_array(),
+        });
+    }
+    let first = *next_id;
+    *next_id += ty.members.len() as u32;
+    clumps.push(kind, state, first);
+}
+
+/// A uniformly random rotation (Shoemake 1992, Graphics Gems III: from three uniform
+/// numbers).
+pub fn random_rotation(rng: &mut u64) -> DQuat {
+    let (u1, u2, u3) = (
+        crate::inflow::next_f64(rng),
+        crate::inflow::next_f64(rng),
+        crate::inflow::next_f64(rng),
+    );
+    let tau = 2.0 * std::f64::consts::PI;
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    DQuat::from_xyzw(
+        a * (tau * u2).sin(),
+        a * (tau * u2).cos(),
+        b * (tau * u3).sin(),
+        b * (tau * u3).cos(),
+    )
+    .normalize()
 }
 
 /// Find every member's row from its particle id (after an insertion), or follow a
