@@ -552,11 +552,7 @@ pub fn world_from_scene(scene: &Scene, path: &Path) -> Result<World, SceneError>
                 let (material, radii, fractions) = match (clump, &clumps) {
                     (Some(k), Some(c)) => {
                         let ty = &c.types[k as usize];
-                        let reach = ty
-                            .members
-                            .iter()
-                            .map(|m| m.offset.length() + m.radius)
-                            .fold(0.0, f64::max);
+                        let reach = ty.bounding_radius();
                         (ty.material, vec![reach], vec![1.0])
                     }
                     _ => (
@@ -792,11 +788,7 @@ fn place_particles(
         let (m, reach) = match (kind, &clumps) {
             (Some(k), Some(c)) => {
                 let ty = &c.types[k as usize];
-                let reach = ty
-                    .members
-                    .iter()
-                    .map(|m| m.offset.length() + m.radius)
-                    .fold(0.0, f64::max);
+                let reach = ty.bounding_radius();
                 (ty.material, reach)
             }
             _ => (

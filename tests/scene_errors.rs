@@ -219,6 +219,58 @@ fn bad_contact_laws_exit_2_naming_the_field() {
 
 /// Checks of wall and inflow values that the types cannot express: NaN or out-of-order
 /// numbers, negative jitter, an inflow region narrower than its particles.
+/// The clump fields: a type with members that do not touch, an unknown type, a zero
+/// orientation, a block naming both a clump and a radius, an inflow naming both a clump
+/// and a material, and sinks beside clumps.
+#[test]
+fn bad_clump_values_exit_2_naming_the_field() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let ty = "\n[[clump_types]]\nname = \"pair\"\nmaterial = \"steel\"\n\
+              spheres = [{ offset = [0.0, 0.0, 0.0], radius = 0.005 }, { offset = [0.006, 0.0, 0.0], radius = 0.005 }]\n";
+    let clump = "\n[[clumps]]\ntype = \"pair\"\nposition = [0.0, 0.0, 0.1]\n";
+    let block = "\n[[blocks]]\nclump = \"pair\"\nmin = [0.0, 0.0, 0.2]\nmax = [0.1, 0.1, 0.3]\n";
+    let inflow = "\n[[inflows]]\nclump = \"pair\"\nrate = 100.0\ntotal = 10\n\
+                  region = { type = \"box\", min = [0.0, 0.0, 0.4], max = [0.1, 0.1, 0.5] }\n";
+    let sink = "\n[[sinks]]\npoint = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\n";
+    let cases = [
+        (
+            "clump_apart.toml",
+            format!("{GOOD}{}{clump}", ty.replace("0.006", "0.02")),
+            "clump_types[0].shape",
+        ),
+        (
+            "clump_unknown_type.toml",
+            format!("{GOOD}{ty}{}", clump.replace("\"pair\"", "\"triple\"")),
+            "clumps[0].type",
+        ),
+        (
+            "clump_zero_orientation.toml",
+            format!("{GOOD}{ty}{clump}orientation = [0.0, 0.0, 0.0, 0.0]\n"),
+            "clumps[0].orientation",
+        ),
+        (
+            "clump_block_radius.toml",
+            format!("{GOOD}{ty}{block}radius = 0.005\n"),
+            "blocks[0].radius",
+        ),
+        (
+            "clump_inflow_material.toml",
+            format!("{GOOD}{ty}{inflow}material = \"steel\"\n"),
+            "inflows[0].material",
+        ),
+        (
+            "clump_sinks.toml",
+            format!("{GOOD}{ty}{clump}{sink}"),
+            "sinks",
+        ),
+    ];
+    for (name, text, field) in cases {
+        let scene = write_scene(d, name, &text);
+        rejected(d, &scene, &[], field);
+    }
+}
+
 #[test]
 fn bad_wall_and_inflow_values_exit_2_naming_the_field() {
     let dir = tempfile::tempdir().expect("temp dir");

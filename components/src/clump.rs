@@ -26,6 +26,16 @@ pub struct ClumpType {
     pub centre: DVec3,
 }
 
+impl ClumpType {
+    /// Radius about the centre of mass of the sphere holding every member.
+    pub fn bounding_radius(&self) -> f64 {
+        self.members
+            .iter()
+            .map(|m| m.offset.length() + m.radius)
+            .fold(0.0, f64::max)
+    }
+}
+
 /// The integrator's extra values of one clump body: Gear keeps the derivatives of the
 /// centre's acceleration and of the torque (a, da/dt, d2a/dt2 and T, dT/dt, d2T/dt2, as
 /// the last corrector left them) and the orientation and angular momentum at the start of

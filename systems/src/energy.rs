@@ -123,11 +123,7 @@ fn body_energies(clumps: &Clumps, body: &BodyAcceleration, counted_ids: u32) -> 
         let kinetic = 0.5 * ty.mass * clumps.velocity[b].length_squared();
         let rotational = 0.5 * clumps.angular_momentum[b].dot(clumps.angular_velocity(b));
         let potential = -ty.mass * a.dot(clumps.position[b]);
-        let reach = ty
-            .members
-            .iter()
-            .map(|m| m.offset.length() + m.radius)
-            .fold(0.0, f64::max);
+        let reach = ty.bounding_radius();
         e.kinetic += kinetic;
         e.rotational += rotational;
         e.potential += potential;

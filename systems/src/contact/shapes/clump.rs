@@ -127,8 +127,8 @@ fn outer(p: DVec3, q: DVec3) -> DMat3 {
     DMat3::from_cols(p * q.x, p * q.y, p * q.z)
 }
 
-/// Inertia tensor (unit density) about the origin of a region with volume `v`, second
-/// moment `second` = integral of p p^T: I = tr(S) 1 - S.
+/// Inertia tensor (unit density) about the origin of a region with second moment
+/// `second` = S = integral of p p^T: I = tr(S) 1 - S.
 fn inertia_from_second_moment(second: DMat3) -> DMat3 {
     let trace = second.x_axis.x + second.y_axis.y + second.z_axis.z;
     DMat3::from_diagonal(DVec3::splat(trace)) - second
