@@ -202,6 +202,36 @@ fn check(args: CheckArgs) -> ExitCode {
         p.len(),
         scene.inflows.iter().map(|i| i.total).sum::<u64>()
     );
+    if let Some(clumps) = sim.world.get_resource::<grainflow_components::Clumps>() {
+        let by_inflow: u64 = scene
+            .inflows
+            .iter()
+            .filter(|i| i.clump.is_some())
+            .map(|i| i.total)
+            .sum();
+        let members: usize = (0..clumps.len())
+            .map(|b| clumps.types[clumps.kind[b] as usize].members.len())
+            .sum();
+        let _ = writeln!(
+            out,
+            "clumps     {} placed ({members} of the particles are their members), {by_inflow} by inflow; types: {}",
+            clumps.len(),
+            clumps
+                .types
+                .iter()
+                .map(|t| format!(
+                    "{} ({} members, mass {:.4e} kg, principal inertia [{:.4e}, {:.4e}, {:.4e}] kg m^2)",
+                    t.name,
+                    t.members.len(),
+                    t.mass,
+                    t.inertia.x,
+                    t.inertia.y,
+                    t.inertia.z
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     let _ = writeln!(
         out,
         "materials  {}",

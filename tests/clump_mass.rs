@@ -256,3 +256,50 @@ fn disconnected_members_are_refused() {
     };
     assert!(message.contains("member 1"), "{message}");
 }
+
+/// `grainflow check` counts the clumps of a block and an inflow apart from the member
+/// spheres, and prints the type's mass: the closed-form union volume times the density
+/// (to its five printed digits).
+#[test]
+fn check_counts_the_clumps_and_prints_their_mass() {
+    let (r, rho) = (1.0e-3, 2500.0);
+    let dir = std::env::temp_dir().join(format!("grainflow-clump-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "[simulation]\ndt = 1.0e-6\nend_time = 0.01\n\
+             [[materials]]\nname = \"m\"\ndensity = {rho}\nyoungs_modulus = 1.0e7\npoisson_ratio = 0.3\n\
+             [[clump_types]]\nname = \"pair\"\nmaterial = \"m\"\n\
+             spheres = [{{ offset = [-0.75e-3, 0.0, 0.0], radius = {r:e} }}, {{ offset = [0.75e-3, 0.0, 0.0], radius = {r:e} }}]\n\
+             [[blocks]]\nclump = \"pair\"\nmin = [0.0, 0.0, 0.0]\nmax = [0.02, 0.02, 0.02]\ncount = 7\n\
+             [[inflows]]\nclump = \"pair\"\nrate = 100.0\ntotal = 5\n\
+             region = {{ type = \"box\", min = [0.0, 0.0, 0.04], max = [0.02, 0.02, 0.06] }}\n"
+        ),
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_grainflow"))
+        .args(["check", scene.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("particles  14 placed"), "{text}");
+    let line = text.lines().find(|l| l.starts_with("clumps")).expect(&text);
+    assert!(line.contains("7 placed (14 of the particles"), "{line}");
+    assert!(line.contains("5 by inflow"), "{line}");
+    let mass: f64 = line
+        .split("mass ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .expect(line);
+    let (v, _, _) = collinear_union(r, &[-0.75e-3, 0.75e-3]);
+    assert!(rel(mass, rho * v) < 1e-4, "mass {mass} vs {}", rho * v);
+    std::fs::remove_dir_all(&dir).ok();
+}

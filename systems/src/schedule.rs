@@ -57,7 +57,7 @@ use bevy_ecs::schedule::SingleThreadedExecutor;
 use grainflow_components::{GearState, IntegratorKind, SimClock, VerletState, Walls};
 
 use crate::contact::with_history::has_contact_laws;
-use crate::contact::{frictionless, walls, with_history};
+use crate::contact::{frictionless, wall_pass, walls, with_history};
 use crate::coupling::{has_blending, has_coupling};
 use crate::fluid::{has_fluid, FluidFlow};
 use crate::integrate::clamp::has_clamped;
@@ -322,7 +322,7 @@ pub const REGISTRY: &[SystemEntry] = &[
         phase: Phase::Both,
         wanted: wall_history,
         add: |s, set| {
-            s.add_systems(with_history::carry_wall_history.in_set(set));
+            s.add_systems(wall_pass::carry_wall_history.in_set(set));
         },
     },
     SystemEntry {

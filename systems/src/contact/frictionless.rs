@@ -1,4 +1,6 @@
-//! Hertz normal contact with damping (Hertz 1896), between particles and with walls.
+//! The frictionless instance of the contact pipeline: Hertz normal contact with damping
+//! (Hertz 1896, `laws/hertz.rs`) between sphere pairs, a central force with no
+//! per-contact state, and the shared wall stage (`wall_pass`) with the laws of no history.
 //!
 //! The pair pass runs four pairs at a time in `wide::f64x4` lanes, with no branch on
 //! contact: lanes out of contact are masked. Dense chunks of rows take the pairs of one
@@ -6,14 +8,15 @@
 //! row they belong to.
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    Materials, PairParams, Particles, RunHealth, VerletList, WallList, Walls,
+    Materials, PairParams, Particles, RunHealth, SimClock, VerletList, WallList, Walls,
 };
 use rayon::prelude::*;
 use wide::{f64x4, CmpLt};
 
 use super::deeper;
 use super::laws::hertz::{hertz_normal_force, ConstantDamping, NormalDamping, RestitutionDamping};
-use super::walls::wall_contact;
+use super::pipeline::Laws;
+use super::wall_pass::{add_wall_results, wall_contacts, wall_entry_chunks, WallResult};
 use crate::real::{gather, group_masks, lane_sum, store_lanes};
 use crate::team::{PartTimes, StaticSplit};
 use crate::{row_chunks, Rows, CHUNK};
@@ -80,11 +83,13 @@ impl PairTable for Materials {
     }
 }
 
-/// What [`hertz_contact`] keeps from step to step: s_k of every pair, and the part times
+/// What [`hertz_contact`] keeps from step to step: s_k of every pair, the wall stage's
+/// results, and the part times
 /// of its two passes ([`StaticSplit::timed_map_reduce`]).
 #[derive(Default)]
 pub struct KeptFromStep {
     pair_scale: Vec<f64>,
+    wall_results: Vec<WallResult>,
     times: [PartTimes; 2],
 }
 
@@ -107,35 +112,46 @@ pub fn hertz_contact(
     mut particles: ResMut<Particles>,
     list: Res<VerletList>,
     materials: Res<Materials>,
-    walls: Option<Res<Walls>>,
-    wall_list: Option<Res<WallList>>,
+    (walls, wall_list): (Option<Res<Walls>>, Option<Res<WallList>>),
+    clock: Res<SimClock>,
     mut health: ResMut<RunHealth>,
 ) {
     let _span = tracing::info_span!("hertz_contact").entered();
     let walls = walls.as_deref().zip(wall_list.as_deref());
     let restitution = materials.pairs.iter().any(|p| p.restitution_factor > 0.0);
-    let KeptFromStep { pair_scale, times } = &mut *kept;
+    let KeptFromStep {
+        pair_scale,
+        wall_results,
+        times,
+    } = &mut *kept;
     pair_scale.resize(list.pairs(), 0.0);
+    if let Some((_, wl)) = walls {
+        wall_results.resize(wl.walls.len(), [0.0; 8]);
+    }
     let one = OneMaterial(materials.pairs[0]);
+    let m = &*materials;
     let (p, s, t) = (&mut *particles, &mut pair_scale[..], times);
+    let w = (walls, &mut wall_results[..], clock.dt);
     let worst = match (materials.list.len() == 1, restitution) {
-        (true, false) => both_passes::<_, ConstantDamping>(p, &list, &one, s, walls, t),
-        (true, true) => both_passes::<_, RestitutionDamping>(p, &list, &one, s, walls, t),
-        (false, false) => both_passes::<_, ConstantDamping>(p, &list, &*materials, s, walls, t),
-        (false, true) => both_passes::<_, RestitutionDamping>(p, &list, &*materials, s, walls, t),
+        (true, false) => both_passes::<_, ConstantDamping>(p, &list, &one, m, s, w, t),
+        (true, true) => both_passes::<_, RestitutionDamping>(p, &list, &one, m, s, w, t),
+        (false, false) => both_passes::<_, ConstantDamping>(p, &list, m, m, s, w, t),
+        (false, true) => both_passes::<_, RestitutionDamping>(p, &list, m, m, s, w, t),
     };
     health.max_overlap_ratio = worst.0;
     health.max_overlap_particle = worst.1;
     health.run_max_overlap_ratio = health.run_max_overlap_ratio.max(worst.0);
 }
 
-/// The two passes for one material table and damping law.
+/// The two passes for one material table and damping law; the walls (with the buffer of
+/// their results and the step) go through the wall stage with the laws of `materials`.
 fn both_passes<T: PairTable, D: NormalDamping>(
     particles: &mut Particles,
     list: &VerletList,
     table: &T,
+    materials: &Materials,
     scale: &mut [f64],
-    walls: Option<(&Walls, &WallList)>,
+    (walls, wall_results, dt): (Option<(&Walls, &WallList)>, &mut [WallResult], f64),
     [row_times, partner_times]: &mut [PartTimes; 2],
 ) -> (f64, u32) {
     let rows = {
@@ -143,9 +159,13 @@ fn both_passes<T: PairTable, D: NormalDamping>(
         row_forces::<T, D>(particles, list, table, scale, row_times)
     };
     let _span = tracing::info_span!("partner_forces").entered();
+    let laws = walls.map(|_| Laws::new::<D>(materials, None, dt));
+    let walls = walls
+        .zip(laws.as_ref())
+        .map(|((w, wl), laws)| (w, wl, laws));
     deeper(
         rows,
-        partner_and_wall_forces::<T, D>(particles, list, scale, table, walls, partner_times),
+        partner_and_wall_forces::<D>(particles, list, scale, walls, wall_results, partner_times),
     )
 }
 
@@ -393,52 +413,66 @@ fn flat_rows<T: PairTable, D: NormalDamping>(
 }
 
 /// Pass 2: every particle adds the other half of the pairs it is partner in, then its
-/// wall forces. Returns the deepest wall overlap ratio and its particle.
-fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
+/// wall forces (the wall stage, [`wall_contacts`], run for the chunk's entries first).
+/// Returns the deepest wall overlap ratio and its particle.
+fn partner_and_wall_forces<D: NormalDamping>(
     particles: &mut Particles,
     list: &VerletList,
     scale: &[f64],
-    table: &T,
-    walls: Option<(&Walls, &WallList)>,
+    walls: Option<(&Walls, &WallList, &Laws)>,
+    wall_results: &mut [WallResult],
     times: &mut PartTimes,
 ) -> (f64, u32) {
+    let n = particles.len();
     let mut force = std::mem::take(&mut particles.force);
     let cols = Rows::of(particles);
     let [fx, fy, fz] = &mut force;
+    let out = wall_entry_chunks(walls.map(|(_, wl, _)| (wall_results, &wl.start[..])), n, 1);
     let worst = (
         fx.par_chunks_mut(CHUNK),
         fy.par_chunks_mut(CHUNK),
         fz.par_chunks_mut(CHUNK),
+        out,
     )
         .into_par_iter()
         .enumerate()
         // `move`: the closure holds its own copy of the column slices, kept in registers.
         .timed_map_reduce(
             times,
-            move |(c, (fx, fy, fz))| {
+            move |(c, (fx, fy, fz, out))| {
                 let base = c * CHUNK;
                 let end = base + fx.len();
                 let rows = base..end;
                 let partnered = (list.rev_start[end] - list.rev_start[base]) as usize;
-                let wall_rows = walls.filter(|(_, wl)| wl.start[base] != wl.start[end]);
-                if sparse(partnered, fx.len()) {
-                    flat_partners(&cols, list, scale, base, [&mut *fx, &mut *fy, &mut *fz]);
-                    let Some((walls, wl)) = wall_rows else {
-                        return (0.0, u32::MAX);
-                    };
-                    let mut worst = (0.0f64, u32::MAX);
-                    for i in rows.filter(|&i| wl.start[i] != wl.start[i + 1]) {
-                        let k = i - base;
-                        let mut f = [fx[k], fy[k], fz[k]];
-                        let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
+                // The chunk's wall results, when it has wall entries.
+                let walls = match (walls, out) {
+                    (Some((walls, wl, laws)), Some(out)) if wl.start[base] != wl.start[end] => {
+                        wall_contacts::<D>(laws, &cols, walls, wl, rows.clone(), &mut [], out);
+                        Some((wl, &*out, wl.start[base] as usize))
+                    }
+                    _ => None,
+                };
+                let mut worst = (0.0f64, u32::MAX);
+                let mut add_walls = |i: usize, f: &mut [f64; 3]| {
+                    if let Some((wl, out, first)) = walls {
+                        let deepest = add_wall_results(wl, out, first, i, f);
                         if deepest > 0.0 {
                             worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
                         }
-                        [fx[k], fy[k], fz[k]] = f;
+                    }
+                };
+                if sparse(partnered, fx.len()) {
+                    flat_partners(&cols, list, scale, base, [&mut *fx, &mut *fy, &mut *fz]);
+                    if let Some((wl, _, _)) = walls {
+                        for i in rows.filter(|&i| wl.start[i] != wl.start[i + 1]) {
+                            let k = i - base;
+                            let mut f = [fx[k], fy[k], fz[k]];
+                            add_walls(i, &mut f);
+                            [fx[k], fy[k], fz[k]] = f;
+                        }
                     }
                     return worst;
                 }
-                let mut worst = (0.0f64, u32::MAX);
                 for i in rows {
                     let k = i - base;
                     let (xi, yi, zi) = (
@@ -454,12 +488,7 @@ fn partner_and_wall_forces<T: PairTable, D: NormalDamping>(
                         f[1] += s * (yi - cols.position[1][j]);
                         f[2] += s * (zi - cols.position[2][j]);
                     }
-                    if let Some((walls, wl)) = wall_rows {
-                        let deepest = wall_forces::<T, D>(&cols, walls, wl, table, i, &mut f);
-                        if deepest > 0.0 {
-                            worst = deeper(worst, (deepest / cols.radius[i], cols.id[i]));
-                        }
-                    }
+                    add_walls(i, &mut f);
                     [fx[k], fy[k], fz[k]] = f;
                 }
                 worst
@@ -495,45 +524,4 @@ fn flat_partners(
         fy[k] += s * (p.position[1][i] - p.position[1][j]);
         fz[k] += s * (p.position[2][i] - p.position[2][j]);
     }
-}
-
-/// Adds the wall forces of particle `i` to `f`; returns its deepest wall overlap (zero if
-/// none).
-#[inline(always)]
-fn wall_forces<T: PairTable, D: NormalDamping>(
-    p: &Rows,
-    walls: &Walls,
-    wl: &WallList,
-    table: &T,
-    i: usize,
-    f: &mut [f64; 3],
-) -> f64 {
-    let (xi, ri) = (
-        [p.position[0][i], p.position[1][i], p.position[2][i]],
-        p.radius[i],
-    );
-    let mut deepest = 0.0f64;
-    for &w in &wl.walls[wl.start[i] as usize..wl.start[i + 1] as usize] {
-        let wall = &walls.list[w as usize];
-        let Some((dist, n)) = wall_contact(&wall.shape, xi, ri) else {
-            continue;
-        };
-        let delta = ri - dist;
-        let delta_dot =
-            -(p.velocity[0][i] * n[0] + p.velocity[1][i] * n[1] + p.velocity[2][i] * n[2]);
-        let params = table.get(wall.material, p.material[i]);
-        let fn_ = hertz_normal_force::<f64, D>(
-            params.hertz_factor,
-            D::coefficient(params),
-            (ri * delta).sqrt(),
-            p.inv_mass[i],
-            delta,
-            delta_dot,
-        );
-        f[0] += fn_ * n[0];
-        f[1] += fn_ * n[1];
-        f[2] += fn_ * n[2];
-        deepest = deepest.max(delta);
-    }
-    deepest
 }
