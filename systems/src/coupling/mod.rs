@@ -45,6 +45,7 @@ use grainflow_components::{Clamped, Coupling, ParticleUpdate, Particles};
 use grainflow_fluid::Grid;
 
 pub mod blending;
+pub mod bodies;
 pub mod distance_penalty;
 pub mod face_exchange;
 pub mod fluid_momentum;
