@@ -3,7 +3,9 @@
 //! inside every particle, before each fluid step.
 //!
 //! For every particle `p` (row + 1 of the current order) with centre `x_p`, radius `r`,
-//! velocity `U` and angular velocity `w`:
+//! velocity `U` and angular velocity `w` (a body of another shape, such as a clump: its
+//! owner row, centre of mass, velocity and angular velocity, its solid given by the
+//! depth of its [`ParticleShape`] in place of `r - |x - x_p|`, [`super::bodies`]):
 //! * markers (seed's level set): a cell whose box lies inside the sphere is inner (`-p`),
 //!   one the surface may cut (centre within half a cell diagonal of the surface) is
 //!   boundary (`p`), all others stay outer (0). Only the cells of the sphere's bounding box
@@ -36,6 +38,7 @@
 //! meet their own image). A sphere may reach past a wall, inflow or outflow side: the
 //! side's condition holds on its faces.
 //!
+//! [`ParticleShape`]: crate::contact::shapes::ParticleShape
 //! [`ParticleUpdate::Prescribed`]: grainflow_components::ParticleUpdate::Prescribed
 //! [`ParticleUpdate::FluidMomentum`]: grainflow_components::ParticleUpdate::FluidMomentum
 use bevy_ecs::prelude::*;
