@@ -362,8 +362,8 @@ fn inside_loads(
         if b != u32::MAX {
             let owner = bodies.list[b as usize].owner;
             if owner != i {
-                for d in 0..3 {
-                    contact[owner][d] += particles.force[d][i];
+                for (c, column) in contact[owner].iter_mut().zip(&particles.force) {
+                    *c += column[i];
                 }
             }
         }
