@@ -101,8 +101,8 @@ pub struct SeriesArgs {
     /// quantities, which take every particle).
     #[arg(long, value_delimiter = ',')]
     pub ids: Vec<u32>,
-    /// Direction of gravity, for the settling velocity and the floor of the landing
-    /// time: -x, x, -y, y, -z or z (as `--down=-z`).
+    /// Direction of gravity, for the settling velocity, the floor of the landing time
+    /// and the horizontal of the axis angle: -x, x, -y, y, -z or z (as `--down=-z`).
     #[arg(long, default_value = "-z", value_parser = parse_down, allow_hyphen_values = true)]
     pub down: [f64; 3],
     /// Further run directories drawn on the same axes (cloud quantities only), e.g. the
@@ -201,6 +201,9 @@ pub enum Quantity {
     SettlingVelocity,
     /// Number of clusters of spheres (gaps below a tenth of the radius), one line per run.
     Clusters,
+    /// Angle (degrees) of the long axis of every clump body to the plane perpendicular to
+    /// gravity (`--down`), one line per body.
+    AxisAngle,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -1197,6 +1200,9 @@ fn series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
     if matches!(a.quantity, Quantity::SettlingVelocity | Quantity::Clusters) {
         return cloud_series(a);
     }
+    if a.quantity == Quantity::AxisAngle {
+        return axis_angle_series(a);
+    }
     if !a.with.is_empty() {
         return input(
             "--with: other runs are drawn only for --quantity settling-velocity or clusters",
@@ -1373,6 +1379,87 @@ fn cloud_series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
         title,
         x_desc: "t (s)",
         y_desc: &y_desc,
+    };
+    draw_lines(&lines, &text, a.size, &out)?;
+    Ok(out)
+}
+
+/// Angle (degrees) of the long axis `a` to the plane perpendicular to the unit vector
+/// `down`: `asin(|a . down| / |a|)`.
+pub fn axis_angle(axis: [f64; 3], down: [f64; 3]) -> f64 {
+    let along: f64 = (0..3).map(|d| axis[d] * down[d]).sum();
+    let length = (0..3).map(|d| axis[d] * axis[d]).sum::<f64>().sqrt();
+    (along.abs() / length).min(1.0).asin().to_degrees()
+}
+
+/// `series` of `--quantity axis-angle`: for every clump body of the run (the `clump` and
+/// `axis` fields of `particles.h5`: the body of each member row and the body's long
+/// principal axis), the angle of its long axis to the plane perpendicular to `--down`
+/// against time ([`axis_angle`]), one line per body (at most 12).
+fn axis_angle_series(a: &SeriesArgs) -> Result<PathBuf, PlotError> {
+    if a.component.is_some() || !a.ids.is_empty() || !a.with.is_empty() {
+        return input("--component, --ids and --with are not for --quantity axis-angle");
+    }
+    let run = ParticleRun::open(&a.run_dir)?;
+    let path = a.run_dir.join("particles.h5");
+    let mut lines: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    for &info in &run.frames {
+        let bad = |e: hdf5::Error| {
+            PlotError::Input(format!(
+                "{}: frame {}: {e} (--quantity axis-angle needs a run with clumps)",
+                path.display(),
+                info.group()
+            ))
+        };
+        let group = run.file.group(&info.group()).map_err(bad)?;
+        let body: Vec<u32> = group
+            .dataset("clump")
+            .and_then(|d| d.read_raw())
+            .map_err(bad)?;
+        let axis: Vec<f64> = group
+            .dataset("axis")
+            .and_then(|d| d.read_raw())
+            .map_err(bad)?;
+        if axis.len() != 3 * body.len() {
+            return input(format!(
+                "{}: frame {}: {} axis values for {} rows",
+                path.display(),
+                info.group(),
+                axis.len(),
+                body.len()
+            ));
+        }
+        let mut seen = Vec::new();
+        for (row, &b) in body.iter().enumerate() {
+            if b == u32::MAX || seen.contains(&b) || seen.len() == MAX_DEFAULT_IDS {
+                continue;
+            }
+            seen.push(b);
+            let v = [axis[3 * row], axis[3 * row + 1], axis[3 * row + 2]];
+            let name = format!("body {b}");
+            let angle = (info.time, axis_angle(v, a.down));
+            match lines.iter_mut().find(|l| l.0 == name) {
+                Some(line) => line.1.push(angle),
+                None => lines.push((name, vec![angle])),
+            }
+        }
+    }
+    if lines.is_empty() {
+        return input(format!(
+            "RUN_DIR {}: particles.h5 holds no clump",
+            a.run_dir.display()
+        ));
+    }
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| a.run_dir.join("axis_angle.png"));
+    register_font()?;
+    write_series_csv(a.csv.as_deref(), &lines)?;
+    let text = LineChart {
+        title: "angle of the long axis to the horizontal against time",
+        x_desc: "t (s)",
+        y_desc: "angle (degrees)",
     };
     draw_lines(&lines, &text, a.size, &out)?;
     Ok(out)

@@ -1563,10 +1563,14 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
             "sinks do not remove clumps yet: expected no sinks in a scene with clumps".into(),
         ));
     }
-    if has_clumps && s.fluid.as_ref().is_some_and(|f| f.has_grid()) {
+    if has_clumps
+        && s.coupling
+            .as_ref()
+            .is_some_and(|c| c.boundary == BoundaryRuleName::DistancePenalty)
+    {
         return Err((
-            "fluid".into(),
-            "clumps are not coupled to a fluid grid yet: expected no fluid grid in a scene with clumps".into(),
+            "coupling.boundary".into(),
+            "the distance penalty is not built for clumps yet: expected boundary = \"face_centre\" in a scene with clumps".into(),
         ));
     }
     for (k, b) in s.blocks.iter().enumerate() {

@@ -233,6 +233,8 @@ fn bad_clump_values_exit_2_naming_the_field() {
     let inflow = "\n[[inflows]]\nclump = \"pair\"\nrate = 100.0\ntotal = 10\n\
                   region = { type = \"box\", min = [0.0, 0.0, 0.4], max = [0.1, 0.1, 0.5] }\n";
     let sink = "\n[[sinks]]\npoint = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\n";
+    let penalty = "\n[fluid]\ndensity = 1000.0\nviscosity = 1.0e-6\nmin = [-0.5, -0.5, 0.0]\nmax = [0.5, 0.5, 1.0]\ncells = [2, 2, 2]\n\
+                   level = 1\ndt = 1.0e-3\n\n[coupling]\nboundary = \"distance_penalty\"\n";
     let cases = [
         (
             "clump_apart.toml",
@@ -263,6 +265,11 @@ fn bad_clump_values_exit_2_naming_the_field() {
             "clump_sinks.toml",
             format!("{GOOD}{ty}{clump}{sink}"),
             "sinks",
+        ),
+        (
+            "clump_distance_penalty.toml",
+            format!("{GOOD}{ty}{clump}{penalty}"),
+            "coupling.boundary",
         ),
     ];
     for (name, text, field) in cases {

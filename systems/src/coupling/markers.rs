@@ -3,7 +3,9 @@
 //! inside every particle, before each fluid step.
 //!
 //! For every particle `p` (row + 1 of the current order) with centre `x_p`, radius `r`,
-//! velocity `U` and angular velocity `w`:
+//! velocity `U` and angular velocity `w` (a body of another shape, such as a clump: its
+//! owner row, centre of mass, velocity and angular velocity, its solid given by the
+//! depth of its [`ParticleShape`] in place of `r - |x - x_p|`, [`super::bodies`]):
 //! * markers (seed's level set): a cell whose box lies inside the sphere is inner (`-p`),
 //!   one the surface may cut (centre within half a cell diagonal of the surface) is
 //!   boundary (`p`), all others stay outer (0). Only the cells of the sphere's bounding box
@@ -36,15 +38,17 @@
 //! meet their own image). A sphere may reach past a wall, inflow or outflow side: the
 //! side's condition holds on its faces.
 //!
+//! [`ParticleShape`]: crate::contact::shapes::ParticleShape
 //! [`ParticleUpdate::Prescribed`]: grainflow_components::ParticleUpdate::Prescribed
 //! [`ParticleUpdate::FluidMomentum`]: grainflow_components::ParticleUpdate::FluidMomentum
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    BodyAcceleration, BoundaryRule, CellMarkers, Clamped, Coupling, HydroForces, InsideFluid,
-    ParticleFace, Particles, RunHealth, SimClock,
+    BodyAcceleration, BoundaryRule, CellMarkers, Clamped, Clumps, Coupling, HydroForces,
+    InsideFluid, ParticleFace, Particles, RunHealth, SimClock,
 };
 use grainflow_fluid::{FaceLoad, Grid};
 
+use super::bodies::Bodies;
 use super::distance_penalty::penalty_faces;
 use super::face_exchange::book_face_exchange;
 use super::{holds_faces, rigid_velocity, Wrap};
@@ -56,7 +60,7 @@ pub fn cell_markers(
     (clock, mut health): (Res<SimClock>, ResMut<RunHealth>),
     coupling: Res<Coupling>,
     (particles, body): (Res<Particles>, Res<BodyAcceleration>),
-    clamped: Option<Res<Clamped>>,
+    (clamped, clumps): (Option<Res<Clamped>>, Option<Res<Clumps>>),
     mut markers: ResMut<CellMarkers>,
     mut flow: ResMut<FluidFlow>,
     mut hydro: ResMut<HydroForces>,
@@ -99,51 +103,66 @@ pub fn cell_markers(
     // particle: a face inside several belongs to the one it lies deepest in
     let mut inside: Vec<(u32, u64, u32)> = Vec::new();
     let box_mask = flow.solver.box_mask();
+    let bodies = Bodies::new(&particles, clumps.as_deref());
+    let mut marking = Marking {
+        grid: &grid,
+        wrap: &wrap,
+        box_mask,
+        half_diagonal,
+        blending,
+        marker,
+        marked,
+        inside: &mut inside,
+        blend_faces,
+    };
     for i in 0..particles.len() {
-        let p = i as i32 + 1;
+        if bodies.is_member(i) {
+            continue; // marked with its body below
+        }
         let r = particles.radius[i];
         let xp = wrap.image([0, 1, 2].map(|d| particles.position[d][i]));
-        let range = wrap.cells(xp, r + half_diagonal);
-        for k in range[2].0..range[2].1 {
-            for j in range[1].0..range[1].1 {
-                for ci in range[0].0..range[0].1 {
-                    let c = wrap.index([ci, j, k]);
-                    let rc = wrap.arm(grid.cell_centre(c), xp);
-                    let dist = rc.iter().map(|v| v.powi(2)).sum::<f64>().sqrt();
-                    let m = if dist + half_diagonal <= r {
-                        -p
-                    } else if dist - half_diagonal < r {
-                        p
-                    } else {
-                        continue;
-                    };
-                    let cell = lay.cell(c);
-                    let old = marker[cell];
-                    if old == 0 {
-                        marked.push(cell as u32);
-                    }
-                    if old == 0 || (old > 0 && m < 0) {
-                        marker[cell] = m;
-                    }
-                    for a in 0..3 {
-                        for f in [c, lay.upper(a, c)] {
-                            let rf = wrap.arm(grid.face_centre(a, f), xp);
-                            let idx = lay.face(a, f);
-                            if box_mask[idx] {
-                                continue; // the box's boundary condition holds
-                            }
-                            let d2 = rf.iter().map(|v| v.powi(2)).sum::<f64>();
-                            if d2 < r * r {
-                                let depth = r - d2.sqrt();
-                                inside.push((idx as u32, !depth.to_bits(), i as u32));
-                            } else if blending && m > 0 {
-                                blend_faces.push((idx as u32, i as u32));
-                            }
-                        }
-                    }
+        marking.mark(
+            i,
+            xp,
+            r,
+            |rc| {
+                let dist = rc.iter().map(|v| v.powi(2)).sum::<f64>().sqrt();
+                if dist + half_diagonal <= r {
+                    Some(true)
+                } else if dist - half_diagonal < r {
+                    Some(false)
+                } else {
+                    None
                 }
-            }
-        }
+            },
+            |rf| {
+                let d2 = rf.iter().map(|v| v.powi(2)).sum::<f64>();
+                (d2 < r * r).then(|| r - d2.sqrt())
+            },
+        );
+    }
+    // the bodies of other shapes, by their fluid indicator (`ParticleShape::depth`)
+    for body in &bodies.list {
+        let xc = wrap.image(body.centre);
+        marking.mark(
+            body.owner,
+            xc,
+            bodies.reach[body.kind],
+            |rc| {
+                let depth = bodies.depth(body, rc);
+                if depth >= half_diagonal {
+                    Some(true)
+                } else if depth > -half_diagonal {
+                    Some(false)
+                } else {
+                    None
+                }
+            },
+            |rf| {
+                let depth = bodies.depth(body, rf);
+                (depth > 0.0).then_some(depth)
+            },
+        );
     }
     // each face once (a cell's faces are visited from both its cells), to its deepest
     // particle (positive depths order as their bits; the complement sorts deepest first)
@@ -164,8 +183,14 @@ pub fn cell_markers(
     );
     for &(idx, _, i) in &inside {
         let (a, f) = lay.face_of(idx as usize);
-        let xp = [0, 1, 2].map(|d| particles.position[d][i as usize]);
-        let v = rigid_velocity(&particles, i as usize, wrap.arm(grid.face_centre(a, f), xp));
+        let x = grid.face_centre(a, f);
+        let v = match bodies.owned_by(i as usize) {
+            Some(body) => Bodies::rigid_velocity(body, wrap.arm(x, body.centre)),
+            None => {
+                let xp = [0, 1, 2].map(|d| particles.position[d][i as usize]);
+                rigid_velocity(&particles, i as usize, wrap.arm(x, xp))
+            }
+        };
         for (u, v) in flow.solver.u.iter_mut().zip(v) {
             u[idx as usize] = v;
         }
@@ -186,6 +211,7 @@ pub fn cell_markers(
         inside_loads(
             particle_faces,
             &particles,
+            &bodies,
             &body,
             &hydro,
             &flow,
@@ -229,6 +255,77 @@ pub fn cell_markers(
     });
 }
 
+/// The marking of one fluid step: the cells' markers, the faces inside the particles and
+/// the faces to blend, filled particle by particle ([`Marking::mark`]).
+struct Marking<'a> {
+    grid: &'a Grid,
+    wrap: &'a Wrap,
+    box_mask: &'a [bool],
+    half_diagonal: f64,
+    blending: bool,
+    marker: &'a mut Vec<i32>,
+    marked: &'a mut Vec<u32>,
+    /// (face, depth as ordered bits, complemented, row) of every face inside a particle
+    inside: &'a mut Vec<(u32, u64, u32)>,
+    blend_faces: &'a mut Vec<(u32, u32)>,
+}
+
+impl Marking<'_> {
+    /// Marks the cells within `reach` plus half a cell diagonal of the centre `xp` (the
+    /// image in the box) for row `i` (marker `i + 1`): `cell(arm)` says of a cell by its
+    /// centre's arm whether it is inner (`Some(true)`), boundary (`Some(false)`) or
+    /// neither; `face(arm)` gives the depth of a face centre inside the solid, if inside.
+    /// The faces of the marked cells inside the solid go to `inside`, the others of the
+    /// boundary cells, when blending, to `blend_faces`.
+    fn mark(
+        &mut self,
+        i: usize,
+        xp: [f64; 3],
+        reach: f64,
+        cell: impl Fn([f64; 3]) -> Option<bool>,
+        face: impl Fn([f64; 3]) -> Option<f64>,
+    ) {
+        let (grid, wrap) = (self.grid, self.wrap);
+        let lay = grid.layout();
+        let p = i as i32 + 1;
+        let range = wrap.cells(xp, reach + self.half_diagonal);
+        for k in range[2].0..range[2].1 {
+            for j in range[1].0..range[1].1 {
+                for ci in range[0].0..range[0].1 {
+                    let c = wrap.index([ci, j, k]);
+                    let m = match cell(wrap.arm(grid.cell_centre(c), xp)) {
+                        Some(true) => -p,
+                        Some(false) => p,
+                        None => continue,
+                    };
+                    let cell = lay.cell(c);
+                    let old = self.marker[cell];
+                    if old == 0 {
+                        self.marked.push(cell as u32);
+                    }
+                    if old == 0 || (old > 0 && m < 0) {
+                        self.marker[cell] = m;
+                    }
+                    for a in 0..3 {
+                        for f in [c, lay.upper(a, c)] {
+                            let rf = wrap.arm(grid.face_centre(a, f), xp);
+                            let idx = lay.face(a, f);
+                            if self.box_mask[idx] {
+                                continue; // the box's boundary condition holds
+                            }
+                            if let Some(depth) = face(rf) {
+                                self.inside.push((idx as u32, !depth.to_bits(), i as u32));
+                            } else if self.blending && m > 0 {
+                                self.blend_faces.push((idx as u32, i as u32));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// The load of the faces inside the free particles: the body force per unit mass that
 /// makes the fluid inside a particle accelerate with the particle through the fluid step.
 ///
@@ -245,6 +342,7 @@ pub fn cell_markers(
 fn inside_loads(
     faces: &mut [ParticleFace],
     particles: &Particles,
+    bodies: &Bodies,
     body: &BodyAcceleration,
     hydro: &HydroForces,
     flow: &FluidFlow,
@@ -255,12 +353,26 @@ fn inside_loads(
     for pf in faces.iter() {
         fluid_mass[pf.row as usize] += ml[pf.face as usize];
     }
+    // a body's contact force is the sum over its members (its owner row holds the faces,
+    // the hydrodynamic force and, as every member, the inverse mass of the whole body)
+    let mut contact: Vec<[f64; 3]> = (0..particles.len())
+        .map(|i| [0, 1, 2].map(|d| particles.force[d][i]))
+        .collect();
+    for (i, &b) in bodies.body_of_row.iter().enumerate() {
+        if b != u32::MAX {
+            let owner = bodies.list[b as usize].owner;
+            if owner != i {
+                for (c, column) in contact[owner].iter_mut().zip(&particles.force) {
+                    *c += column[i];
+                }
+            }
+        }
+    }
     let load: Vec<[f64; 3]> = (0..particles.len())
         .map(|i| {
             let g = body.per_material[particles.material[i] as usize];
             [0, 1, 2].map(|d| {
-                let a_p =
-                    g[d] + particles.inv_mass[i] * (particles.force[d][i] + hydro.force[d][i]);
+                let a_p = g[d] + particles.inv_mass[i] * (contact[i][d] + hydro.force[d][i]);
                 let a_in = if fluid_mass[i] > 0.0 {
                     hydro.inside_force[d][i] / (fluid_density * fluid_mass[i])
                 } else {

@@ -39,12 +39,20 @@
 //! centre that leaves the box through a non-periodic side, or for a sphere that would
 //! meet its own image ([`markers::outside_the_fluid`]).
 //!
+//! # Bodies of other shapes
+//!
+//! A clump is one rigid body for the fluid ([`bodies`]): its cells and faces are those of
+//! its shape's fluid indicator (the union of its members), with the body's rigid velocity,
+//! and its force and torque are computed once for that solid and held on one of its rows.
+//! Free spheres keep the sphere path of every job.
+//!
 //! This module holds the helpers its files share; each job has its own file.
 use bevy_ecs::prelude::*;
 use grainflow_components::{Clamped, Coupling, ParticleUpdate, Particles};
 use grainflow_fluid::Grid;
 
 pub mod blending;
+pub mod bodies;
 pub mod distance_penalty;
 pub mod face_exchange;
 pub mod fluid_momentum;

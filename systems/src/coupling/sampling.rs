@@ -13,16 +13,18 @@
 //! ([`held_hydrodynamic_force`]).
 use bevy_ecs::prelude::*;
 use grainflow_components::{
-    BoundaryRule, CellMarkers, Clamped, ContactLaws, Coupling, ForceMethod, HydroForces, Particles,
-    Rotation,
+    BoundaryRule, CellMarkers, Clamped, Clumps, ContactLaws, Coupling, ForceMethod, HydroForces,
+    Particles, Rotation,
 };
 use rayon::prelude::*;
 
+use super::bodies::{Bodies, Body};
 use super::distance_penalty::penalty_reaction;
 use super::fluid_momentum::fluid_momentum_force;
 use super::holds_faces;
-use super::surface_points::surface_point_force;
-use super::volume_integral::volume_integral_force;
+use super::surface_points::{surface_force_over, surface_point_force};
+use super::volume_integral::{volume_integral_force, volume_integral_over};
+use super::Wrap;
 use crate::fluid::FluidFlow;
 
 /// `hydrodynamic_sampling`: after each fluid step, the force and torque of every
@@ -31,7 +33,7 @@ pub fn hydrodynamic_sampling(
     coupling: Res<Coupling>,
     flow: Res<FluidFlow>,
     markers: Res<CellMarkers>,
-    clamped: Option<Res<Clamped>>,
+    (clamped, clumps): (Option<Res<Clamped>>, Option<Res<Clumps>>),
     particles: Res<Particles>,
     mut hydro: ResMut<HydroForces>,
 ) {
@@ -46,9 +48,20 @@ pub fn hydrodynamic_sampling(
         coupling.fluid_density,
         flow.dt,
     );
+    let bodies = Bodies::new(&particles, clumps.as_deref());
     let ft: Vec<([f64; 3], [f64; 3])> = (0..particles.len())
         .into_par_iter()
         .map(|i| {
+            if bodies.is_member(i) {
+                return match bodies.owned_by(i) {
+                    Some(body) if holds_faces(&coupling, clamped.as_deref(), i) => {
+                        let (f, t) = body_force(ns, &coupling, &bodies, body);
+                        (f, Bodies::torque_about_owner(body, &particles, f, t))
+                    }
+                    Some(_) => carried[i],
+                    None => ([0.0; 3], [0.0; 3]), // the body's force is on its owner row
+                };
+            }
             if !holds_faces(&coupling, clamped.as_deref(), i) {
                 return carried[i];
             }
@@ -78,6 +91,45 @@ pub fn hydrodynamic_sampling(
         for d in 0..3 {
             hydro.force[d][i] = f[d] + rf[d] + hydro.exchange_force[d][i];
             hydro.torque[d][i] = t[d] + rt[d] + hydro.exchange_torque[d][i];
+        }
+    }
+}
+
+/// Force and torque (about its centre) on a body of another shape than the sphere whose
+/// faces are held ([`super::bodies`]), by the scene's [`ForceMethod`] over its whole
+/// solid through its fluid indicator: the volume integral over the faces inside it
+/// (`depth > 0`), or the surface force over its shape's surface points, each face or point
+/// once however many members hold it.
+fn body_force(
+    ns: &grainflow_fluid::NavierStokes,
+    coupling: &Coupling,
+    bodies: &Bodies,
+    body: &Body,
+) -> ([f64; 3], [f64; 3]) {
+    let reach = bodies.reach[body.kind];
+    match coupling.method {
+        ForceMethod::VolumeIntegral => {
+            volume_integral_over(ns, coupling, body.centre, reach, |arm| {
+                bodies.depth(body, arm) > 0.0
+            })
+        }
+        ForceMethod::SurfacePoints => {
+            let grid = ns.grid();
+            let wrap = Wrap::new(grid);
+            let xc = wrap.image(body.centre);
+            let q = body.orientation;
+            let points = bodies.shapes[body.kind]
+                .surface_points(&coupling.rule)
+                .into_iter()
+                .map(|sp| {
+                    let arm = (q * sp.position).to_array();
+                    let n = (q * sp.normal).to_array();
+                    (arm, n, coupling.fluid_density * sp.area)
+                });
+            let u = [&ns.u[0][..], &ns.u[1], &ns.u[2]];
+            surface_force_over(grid, u, &ns.p, coupling, xc, points, |x| {
+                bodies.depth(body, wrap.arm(x, xc)) <= 0.0
+            })
         }
     }
 }

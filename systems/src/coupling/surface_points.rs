@@ -6,7 +6,7 @@
 //! The cell stress is `sigma_T = rho_f (-p_T I + nu (G_T + G_T^T))` with the cell mean
 //! velocity gradient `G_T = 1/|T| sum_f u_f (x) n_f |f|` (the seed's
 //! `<grad u> = 1/V int u (x) dA`, see `grainflow_fluid::sample`), its strain rate taken
-//! over the fluid part of the cut cell ([`fluid_fraction`]).
+//! over the fluid part of the cut cell ([`fluid_fraction_of`]).
 use grainflow_components::Coupling;
 use grainflow_fluid::sample::{cell_at, cell_stress};
 use grainflow_fluid::Grid;
@@ -27,25 +27,53 @@ pub fn surface_point_force(
     r: f64,
 ) -> ([f64; 3], [f64; 3]) {
     let j = 4.0 * std::f64::consts::PI * r * r * coupling.fluid_density;
+    let points = coupling
+        .rule
+        .direction
+        .iter()
+        .zip(&coupling.rule.weight)
+        .map(|(n, w)| ([r * n[0], r * n[1], r * n[2]], *n, j * w));
+    let wrap = Wrap::new(grid);
+    let xp = wrap.image(xp);
+    surface_force_over(grid, u, p, coupling, xp, points, |x| {
+        let d2: f64 = wrap.arm(x, xp).iter().map(|v| v.powi(2)).sum();
+        d2 >= r * r
+    })
+}
+
+/// The surface force of [`surface_point_force`] over any solid: `points` are (arm
+/// `x_i - x_p`, outward normal `n_i`, weight `rho_f a_i`: the fluid density times the
+/// area the point stands for), `outside(x)` the solid's fluid indicator at a point of the
+/// box for the fluid fraction of the cut cells ([`fluid_fraction_of`]); the torque is
+/// about `xp`. A body's points are those of its shape ([`crate::contact::shapes::
+/// ParticleShape::surface_points`]: none on the surface buried inside another member).
+pub fn surface_force_over(
+    grid: &Grid,
+    u: [&[f64]; 3],
+    p: &[f64],
+    coupling: &Coupling,
+    xp: [f64; 3],
+    points: impl Iterator<Item = ([f64; 3], [f64; 3], f64)>,
+    outside: impl Fn([f64; 3]) -> bool,
+) -> ([f64; 3], [f64; 3]) {
     let wrap = Wrap::new(grid);
     let xp = wrap.image(xp);
     let (mut f, mut t) = ([0.0; 3], [0.0; 3]);
-    for (n, w) in coupling.rule.direction.iter().zip(&coupling.rule.weight) {
-        let x = wrap.image([0, 1, 2].map(|d| xp[d] + r * n[d]));
-        let s = fluid_stress(grid, u, p, coupling.viscosity, cell_at(grid, x), xp, r);
-        let df = [0, 1, 2].map(|i| j * w * (0..3).map(|k| s[i][k] * n[k]).sum::<f64>());
-        add_force(&mut f, &mut t, [r * n[0], r * n[1], r * n[2]], df);
+    for (arm, n, jw) in points {
+        let x = wrap.image([0, 1, 2].map(|d| xp[d] + arm[d]));
+        let s = fluid_stress(grid, u, p, coupling.viscosity, cell_at(grid, x), &outside);
+        let df = [0, 1, 2].map(|i| jw * (0..3).map(|k| s[i][k] * n[k]).sum::<f64>());
+        add_force(&mut f, &mut t, arm, df);
     }
     (f, t)
 }
 
-/// Fluid fraction of cell `c` outside the sphere (`xp`, `r`), from 4^3 sample points
-/// (their distance from `xp` by minimum image across periodic sides).
-pub fn fluid_fraction(grid: &Grid, c: [usize; 3], xp: [f64; 3], r: f64) -> f64 {
+/// Fluid fraction of cell `c`: the share of its 4^3 sample points (the centres of its
+/// 4 x 4 x 4 sub-cells) where `outside` holds.
+pub fn fluid_fraction_of(grid: &Grid, c: [usize; 3], outside: impl Fn([f64; 3]) -> bool) -> f64 {
     let h = grid.h();
-    let wrap = Wrap::new(grid);
     let lo = [0, 1, 2].map(|d| grid.lower[d] + c[d] as f64 * h[d]);
-    let mut outside = 0;
+    let mut count = 0;
     for k in 0..4 {
         for j in 0..4 {
             for i in 0..4 {
@@ -54,12 +82,11 @@ pub fn fluid_fraction(grid: &Grid, c: [usize; 3], xp: [f64; 3], r: f64) -> f64 {
                     lo[1] + (j as f64 + 0.5) * 0.25 * h[1],
                     lo[2] + (k as f64 + 0.5) * 0.25 * h[2],
                 ];
-                let d2: f64 = wrap.arm(x, xp).iter().map(|v| v.powi(2)).sum();
-                outside += (d2 >= r * r) as u32;
+                count += outside(x) as u32;
             }
         }
     }
-    outside as f64 / 64.0
+    count as f64 / 64.0
 }
 
 /// Stress of the fluid part of cell `c`: the cell mean strain rate over the fluid
@@ -70,10 +97,9 @@ fn fluid_stress(
     p: &[f64],
     nu: f64,
     c: [usize; 3],
-    xp: [f64; 3],
-    r: f64,
+    outside: impl Fn([f64; 3]) -> bool,
 ) -> [[f64; 3]; 3] {
-    let phi = fluid_fraction(grid, c, xp, r).max(1.0 / 64.0);
+    let phi = fluid_fraction_of(grid, c, outside).max(1.0 / 64.0);
     let mut s = cell_stress(grid, u, p, nu, c);
     let pc = p[grid.layout().cell(c)];
     for (i, row) in s.iter_mut().enumerate() {

@@ -29,13 +29,29 @@ pub fn volume_integral_force(
     xp: [f64; 3],
     r: f64,
 ) -> ([f64; 3], [f64; 3]) {
+    volume_integral_over(ns, coupling, xp, r, |arm| {
+        arm.iter().map(|v| v * v).sum::<f64>() < r * r
+    })
+}
+
+/// The volume integral of [`volume_integral_force`] over any solid: the faces within
+/// `reach` of the centre `xp` whose arm `x_f - x_p` (minimum image) `inside` holds, the
+/// torque about `xp`. A body's faces are those of its fluid indicator
+/// ([`super::bodies`]), each counted once however many members hold it.
+pub fn volume_integral_over(
+    ns: &NavierStokes,
+    coupling: &Coupling,
+    xp: [f64; 3],
+    reach: f64,
+    inside: impl Fn([f64; 3]) -> bool,
+) -> ([f64; 3], [f64; 3]) {
     let grid = ns.grid();
     let wrap = Wrap::new(grid);
     let xp = wrap.image(xp);
     let mut faces = Vec::new();
     let mut arms = Vec::new();
-    faces_about(grid, &wrap, xp, r, |a, fc, arm| {
-        if arm.iter().map(|v| v * v).sum::<f64>() < r * r {
+    faces_about(grid, &wrap, xp, reach, |a, fc, arm| {
+        if inside(arm) {
             faces.push((a, fc));
             arms.push(arm);
         }

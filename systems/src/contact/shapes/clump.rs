@@ -12,12 +12,18 @@
 use glam::{DMat3, DVec3};
 use grainflow_components::ClumpMember;
 
-use super::{sphere::Sphere, MassProperties, ParticleShape};
+use grainflow_components::SphereRule;
+
+use super::{sphere::Sphere, MassProperties, ParticleShape, SurfacePoint};
 
 /// Lattice cells per smallest radius of the overlapping members for the overlap integral
 /// (tests/clump_mass.rs: two spheres overlapping by half a radius within 1e-4 of the
 /// analytic volume and inertia).
 const OVERLAP_CELLS_PER_RADIUS: f64 = 96.0;
+
+/// Relative tolerance of "on another member's surface" in [`Clump::surface_points`]:
+/// round-off of `|o_k + r_k n_i - o_j|^2` against `r_j^2`.
+const SURFACE_TIE: f64 = 1e-12;
 
 /// A union of member spheres (body-frame offsets and radii).
 pub struct Clump {
@@ -166,5 +172,41 @@ impl ParticleShape for Clump {
 
     fn contains(&self, p: DVec3) -> bool {
         self.cover(p) > 0
+    }
+
+    /// The largest member depth `max_k (r_k - |p - o_k|)`: outside the union minus the
+    /// distance to it (the distance to a union is the smallest distance to a member),
+    /// inside the depth below the surface of the member the point lies deepest in, a lower
+    /// bound of its depth below the union's surface.
+    fn depth(&self, p: DVec3) -> f64 {
+        self.members
+            .iter()
+            .map(|m| m.radius - (p - m.offset).length())
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Every member's points of the rule (`x = o_k + r_k n_i`, `a = 4 pi r_k^2 w_i`),
+    /// less those inside another member: the union's surface is the part of each member's
+    /// sphere outside all the others, so a point there is counted once and the overlap's
+    /// buried surface not at all. A point on another member's surface (to a relative
+    /// `SURFACE_TIE` in the squared distance) counts as buried only by an earlier member,
+    /// so of coinciding members the first keeps its points.
+    fn surface_points(&self, rule: &SphereRule) -> Vec<SurfacePoint> {
+        let mut points = Vec::new();
+        for (k, m) in self.members.iter().enumerate() {
+            for p in (Sphere { radius: m.radius }).surface_points(rule) {
+                let x = m.offset + p.position;
+                let buried = self.members.iter().enumerate().any(|(j, other)| {
+                    let (d2, r2) = ((x - other.offset).length_squared(), other.radius.powi(2));
+                    j != k
+                        && (d2 < r2 * (1.0 - SURFACE_TIE)
+                            || (j < k && d2 <= r2 * (1.0 + SURFACE_TIE)))
+                });
+                if !buried {
+                    points.push(SurfacePoint { position: x, ..p });
+                }
+            }
+        }
+        points
     }
 }

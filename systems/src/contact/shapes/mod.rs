@@ -2,13 +2,15 @@
 //! or LIGGGHTS' multisphere). A shape supplies its bounding radius (the broad phase), the
 //! spheres of its narrow phase (contact points, normals and overlaps against another
 //! shape and against every wall type come from them, in the one contact pipeline of
-//! `contact/`), its mass properties and its fluid indicator (inside test).
+//! `contact/`), its mass properties and its fluid indicator for the coupling
+//! (`coupling/`): the inside test, the depth below the surface that marks cells and
+//! faces, and the surface force points.
 //!
 //! Spheres are the particles of the contact pass themselves; any other shape becomes a
 //! rigid body ([`rigid_type`]) whose member spheres move with it. Adding a shape is one
 //! file with a [`ParticleShape`] and one row in [`SHAPES`].
 use glam::{DMat3, DQuat, DVec3};
-use grainflow_components::{ClumpMember, ClumpType};
+use grainflow_components::{ClumpMember, ClumpType, SphereRule};
 
 pub mod clump;
 pub mod sphere;
@@ -37,6 +39,38 @@ pub trait ParticleShape {
     fn mass_properties(&self) -> MassProperties;
     /// Fluid indicator: whether the point `p` (body frame) is inside the solid.
     fn contains(&self, p: DVec3) -> bool;
+    /// Fluid indicator as a level set: the depth of `p` (body frame) below the surface,
+    /// positive inside, zero on the surface and minus the distance to the solid outside;
+    /// inside it may be a lower bound of the distance to the surface. The coupling marks
+    /// a cell inner when its centre lies deeper than half a cell diagonal, boundary when
+    /// it lies less than that outside, and gives a face inside several bodies to the one
+    /// it lies deepest in (`coupling/markers.rs`).
+    fn depth(&self, p: DVec3) -> f64;
+    /// Surface force points of the quadrature `rule` on the unit sphere (directions
+    /// `n_i`, weights `w_i` summing to 1), in the body frame: the shape's surface, and
+    /// only it, covered by points with outward normals and area weights, so that
+    /// `sum_i a_i t(x_i)` approximates the surface integral of a traction `t`
+    /// (`coupling/surface_points.rs`).
+    fn surface_points(&self, rule: &SphereRule) -> Vec<SurfacePoint>;
+}
+
+/// One surface force point of a shape, in its body frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    /// Position relative to the body's centre (the origin of the body frame).
+    pub position: DVec3,
+    /// Outward unit normal.
+    pub normal: DVec3,
+    /// The area the point stands for.
+    pub area: f64,
+}
+
+/// The shape of a rigid-body type in its principal frame (origin at the centre of mass):
+/// the union of its member spheres, what the coupling sees of a clump body.
+pub fn body_shape(ty: &ClumpType) -> Box<dyn ParticleShape + Send + Sync> {
+    Box::new(clump::Clump {
+        members: ty.members.clone(),
+    })
 }
 
 /// Makes a shape from its parameters (the member spheres: offsets and radii in the body

@@ -2,7 +2,9 @@
 use glam::{DMat3, DVec3};
 use grainflow_components::ClumpMember;
 
-use super::{MassProperties, ParticleShape};
+use grainflow_components::SphereRule;
+
+use super::{MassProperties, ParticleShape, SurfacePoint};
 
 /// A sphere of `radius` centred on the body origin.
 pub struct Sphere {
@@ -29,5 +31,25 @@ impl ParticleShape for Sphere {
     }
     fn contains(&self, p: DVec3) -> bool {
         p.length_squared() < self.radius * self.radius
+    }
+    /// `r - |p|`, the exact signed distance.
+    fn depth(&self, p: DVec3) -> f64 {
+        self.radius - p.length()
+    }
+    /// The rule's points on the sphere: `x_i = r n_i`, `a_i = 4 pi r^2 w_i`.
+    fn surface_points(&self, rule: &SphereRule) -> Vec<SurfacePoint> {
+        let area = 4.0 * std::f64::consts::PI * self.radius * self.radius;
+        rule.direction
+            .iter()
+            .zip(&rule.weight)
+            .map(|(n, w)| {
+                let normal = DVec3::from_array(*n);
+                SurfacePoint {
+                    position: normal * self.radius,
+                    normal,
+                    area: area * w,
+                }
+            })
+            .collect()
     }
 }
