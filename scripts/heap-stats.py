@@ -14,7 +14,8 @@ usage: scripts/heap-stats.py RUN_DIR [--time T] [--region R Z0 Z1] [--cone R0]
   and 8 sectors; per bin and sector the highest top (z + r); per bin the median over the
   sectors. The angle of repose is atan(-slope) of the least-squares line h(r) through the
   bins with 2 d < r < R_wall(h) - 3 d, R_wall(z) = R0 + z the radius of the 45-degree
-  cone (R0 its outlet radius): away from the rounded apex and from the wall.
+  cone (R0 its outlet radius): away from the rounded apex and from the wall; its error
+  is one standard error of the fitted slope.
 Prints JSON. Needs numpy and h5py (pip install h5py numpy).
 """
 import argparse
@@ -82,9 +83,10 @@ def surface(pos, vel, rad, d, cone_r0):
     rc = np.array([b[0] for b in bins])
     h = np.array([b[1] for b in bins])
     fit = (rc > 2 * d) & (rc < cone_r0 + h - 3 * d)
-    slope, intercept = np.polyfit(rc[fit], h[fit], 1)
+    (slope, intercept), cov = np.polyfit(rc[fit], h[fit], 1, cov=True)
     resid = h[fit] - (slope * rc[fit] + intercept)
-    return bins, fit, float(slope), float(intercept), float(resid.std()), int(still.sum())
+    slope_error = float(math.sqrt(cov[0, 0]))
+    return bins, fit, float(slope), slope_error, float(intercept), float(resid.std()), int(still.sum())
 
 
 def main():
@@ -98,7 +100,7 @@ def main():
     name, time, pos, vel, rad = frame(os.path.join(a.run_dir, "particles.h5"), a.time)
     d = 2.0 * rad.max()
     phi, points = packing_fraction(pos, rad, *a.region, d / 20.0)
-    bins, fit, slope, intercept, spread, still = surface(pos, vel, rad, d, a.cone)
+    bins, fit, slope, slope_error, intercept, spread, still = surface(pos, vel, rad, d, a.cone)
     out = {
         "frame": name,
         "time": time,
@@ -107,6 +109,8 @@ def main():
         "packing_region_m": {"radius": a.region[0], "z0": a.region[1], "z1": a.region[2]},
         "lattice_points": points,
         "angle_of_repose_deg": math.degrees(math.atan(-slope)),
+        # one standard error of the fitted slope, as an angle: d(atan s) = ds / (1 + s^2)
+        "angle_error_deg": math.degrees(slope_error / (1.0 + slope * slope)),
         "surface_fit": {"slope": slope, "height_at_axis_m": intercept,
                         "residual_m": spread, "bins": int(fit.sum())},
         "rows_at_rest": still,
