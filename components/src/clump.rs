@@ -153,10 +153,10 @@ impl Clumps {
         let mut member_start = Vec::with_capacity(n + 1 - gone.len());
         member_start.push(0);
         let mut to = 0;
-        for b in 0..n {
+        for (b, &kept) in keep.iter().enumerate() {
             let first = self.first_member[b] as usize;
             let count = self.types[self.kind[b] as usize].members.len();
-            if !keep[b] {
+            if !kept {
                 self.body_of_id[first..first + count].fill(u32::MAX);
                 continue;
             }
