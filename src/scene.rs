@@ -1557,12 +1557,6 @@ fn validate(s: &Scene) -> Result<(), Invalid> {
     let has_clumps = !s.clumps.is_empty()
         || s.blocks.iter().any(|b| b.clump.is_some())
         || s.inflows.iter().any(|i| i.clump.is_some());
-    if has_clumps && !s.sinks.is_empty() {
-        return Err((
-            "sinks".into(),
-            "sinks do not remove clumps yet: expected no sinks in a scene with clumps".into(),
-        ));
-    }
     if has_clumps
         && s.coupling
             .as_ref()

@@ -245,13 +245,9 @@ fn contact_laws_with_history_do_not_change_a_bit() {
     assert_identical(&one, &two, "contact laws, --threads 1 against --threads 2");
 }
 
-/// Clumps (`integrate/rigid_body.rs`): two blocks of two-sphere clumps with friction, one
-/// falling onto the other, about 2,300 member rows (two chunks). The member pairs, the
-/// loads summed per body and the bodies' orientation must not depend on the thread count.
-#[test]
-fn clumps_do_not_change_a_bit() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let text = r#"
+/// Two blocks of two-sphere clumps with friction in a box, the upper falling onto the
+/// lower (about 2,300 member rows).
+const CLUMP_SCENE: &str = r#"
 [simulation]
 dt = 5e-6
 end_time = 1.0
@@ -301,6 +297,14 @@ jitter = 1.0
 velocity = [0.3, -0.2, -1.0]
 count = 600
 "#;
+
+/// Clumps (`integrate/rigid_body.rs`): two blocks of two-sphere clumps with friction, one
+/// falling onto the other, about 2,300 member rows (two chunks). The member pairs, the
+/// loads summed per body and the bodies' orientation must not depend on the thread count.
+#[test]
+fn clumps_do_not_change_a_bit() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let text = CLUMP_SCENE;
     let scene = write_scene(dir.path(), "determinism-clumps.toml", text);
     let one = run(&scene, &dir.path().join("t1"), 1);
     let two = run(&scene, &dir.path().join("t2"), 2);
@@ -351,6 +355,57 @@ fn particles_removed_through_a_sink_do_not_change_a_bit() {
         "sink counts differ"
     );
     assert_identical(&one, &two, "sink, --threads 1 against --threads 2");
+}
+
+/// Clumps removed through a sink (`systems/src/sinks.rs`): the bodies whose centre
+/// passed the plane, found in body order, their member rows dropped together, the bodies
+/// compacted and the rows re-found must not depend on the thread count. The sink cuts
+/// through the lower block of [`CLUMP_SCENE`] at t = 0 (bodies in both chunks) and takes
+/// those that settle below it later.
+#[test]
+fn clumps_removed_through_a_sink_do_not_change_a_bit() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    // A fuller upper block, so that more than one chunk of rows is left.
+    let (lower, upper) = CLUMP_SCENE
+        .rsplit_once("count = 600")
+        .expect("upper block count");
+    let text = format!(
+        "{lower}count = 1000{upper}\n[[sinks]]\npoint = [0.0, 0.0, 0.006]\nnormal = [0.0, 0.0, 1.0]\n"
+    );
+    let scene = write_scene(dir.path(), "determinism-clump-sink.toml", &text);
+    let one = run(&scene, &dir.path().join("t1"), 1);
+    let two = run(&scene, &dir.path().join("t2"), 2);
+    let removed = one.summary["sinks"][0]["removed"]
+        .as_u64()
+        .expect("removed");
+    let left = one.summary["particles"].as_u64().expect("particles");
+    // The frame at t = 0 holds every placed member row; bodies counted once, two member
+    // rows each.
+    let placed = one
+        .h5
+        .iter()
+        .find(|(k, _)| k.ends_with("/id"))
+        .expect("a frame")
+        .1
+        .len() as u64;
+    assert!(
+        removed > 100 && left as usize > grainflow_systems::CHUNK,
+        "{removed} removed, {left} rows left"
+    );
+    assert_eq!(
+        placed - 2 * removed,
+        left,
+        "bodies lost or orphaned members"
+    );
+    assert_eq!(
+        one.summary["sinks"], two.summary["sinks"],
+        "sink counts differ"
+    );
+    assert_identical(
+        &one,
+        &two,
+        "clumps and a sink, --threads 1 against --threads 2",
+    );
 }
 
 /// The corrector that also predicts the next step in its own pass (`PredictAhead`,

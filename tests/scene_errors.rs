@@ -221,7 +221,7 @@ fn bad_contact_laws_exit_2_naming_the_field() {
 /// numbers, negative jitter, an inflow region narrower than its particles.
 /// The clump fields: a type with members that do not touch, an unknown type, a zero
 /// orientation, a block naming both a clump and a radius, an inflow naming both a clump
-/// and a material, and sinks beside clumps.
+/// and a material.
 #[test]
 fn bad_clump_values_exit_2_naming_the_field() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -232,7 +232,6 @@ fn bad_clump_values_exit_2_naming_the_field() {
     let block = "\n[[blocks]]\nclump = \"pair\"\nmin = [0.0, 0.0, 0.2]\nmax = [0.1, 0.1, 0.3]\n";
     let inflow = "\n[[inflows]]\nclump = \"pair\"\nrate = 100.0\ntotal = 10\n\
                   region = { type = \"box\", min = [0.0, 0.0, 0.4], max = [0.1, 0.1, 0.5] }\n";
-    let sink = "\n[[sinks]]\npoint = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\n";
     let penalty = "\n[fluid]\ndensity = 1000.0\nviscosity = 1.0e-6\nmin = [-0.5, -0.5, 0.0]\nmax = [0.5, 0.5, 1.0]\ncells = [2, 2, 2]\n\
                    level = 1\ndt = 1.0e-3\n\n[coupling]\nboundary = \"distance_penalty\"\n";
     let cases = [
@@ -260,11 +259,6 @@ fn bad_clump_values_exit_2_naming_the_field() {
             "clump_inflow_material.toml",
             format!("{GOOD}{ty}{inflow}material = \"steel\"\n"),
             "inflows[0].material",
-        ),
-        (
-            "clump_sinks.toml",
-            format!("{GOOD}{ty}{clump}{sink}"),
-            "sinks",
         ),
         (
             "clump_distance_penalty.toml",

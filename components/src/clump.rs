@@ -136,6 +136,57 @@ impl Clumps {
         self.member_start.push(self.member_row.len() as u32);
         self.rows_stale = true;
     }
+    /// Remove the bodies `gone` (ascending body indices): the others keep their order and
+    /// get the body indices `0 ..` in it; their entries of `body_of_id` and their slices
+    /// of `member_row` follow, the ids of the removed bodies' members map to no body. The
+    /// rows of the removed members are the caller's to drop.
+    pub fn remove_bodies(&mut self, gone: &[u32]) {
+        if gone.is_empty() {
+            return;
+        }
+        let n = self.len();
+        let mut keep = vec![true; n];
+        for &b in gone {
+            keep[b as usize] = false;
+        }
+        let mut member_row = Vec::with_capacity(self.member_row.len());
+        let mut member_start = Vec::with_capacity(n + 1 - gone.len());
+        member_start.push(0);
+        let mut to = 0;
+        for (b, &kept) in keep.iter().enumerate() {
+            let first = self.first_member[b] as usize;
+            let count = self.types[self.kind[b] as usize].members.len();
+            if !kept {
+                self.body_of_id[first..first + count].fill(u32::MAX);
+                continue;
+            }
+            self.body_of_id[first..first + count].fill(to as u32);
+            let range = self.member_start[b] as usize..self.member_start[b + 1] as usize;
+            member_row.extend_from_slice(&self.member_row[range]);
+            member_start.push(member_row.len() as u32);
+            self.kind[to] = self.kind[b];
+            self.position[to] = self.position[b];
+            self.velocity[to] = self.velocity[b];
+            self.orientation[to] = self.orientation[b];
+            self.angular_momentum[to] = self.angular_momentum[b];
+            self.force[to] = self.force[b];
+            self.torque[to] = self.torque[b];
+            self.aux[to] = self.aux[b];
+            self.first_member[to] = self.first_member[b];
+            to += 1;
+        }
+        self.kind.truncate(to);
+        self.position.truncate(to);
+        self.velocity.truncate(to);
+        self.orientation.truncate(to);
+        self.angular_momentum.truncate(to);
+        self.force.truncate(to);
+        self.torque.truncate(to);
+        self.aux.truncate(to);
+        self.first_member.truncate(to);
+        self.member_row = member_row;
+        self.member_start = member_start;
+    }
 }
 
 /// The state of a body to place: centre, velocity, orientation of the principal frame,

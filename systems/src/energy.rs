@@ -120,9 +120,7 @@ fn body_energies(clumps: &Clumps, body: &BodyAcceleration, counted_ids: u32) -> 
     for b in 0..clumps.len() {
         let ty = &clumps.types[clumps.kind[b] as usize];
         let a = glam::DVec3::from_array(body.per_material[ty.material as usize]);
-        let kinetic = 0.5 * ty.mass * clumps.velocity[b].length_squared();
-        let rotational = 0.5 * clumps.angular_momentum[b].dot(clumps.angular_velocity(b));
-        let potential = -ty.mass * a.dot(clumps.position[b]);
+        let [kinetic, rotational, potential] = body_energy(clumps, body, b);
         let reach = ty.bounding_radius();
         e.kinetic += kinetic;
         e.rotational += rotational;
@@ -133,6 +131,18 @@ fn body_energies(clumps: &Clumps, body: &BodyAcceleration, counted_ids: u32) -> 
         }
     }
     e
+}
+
+/// [kinetic, rotational, potential] energy of clump body `b`: M V^2/2, L.w/2 (w = R I^-1
+/// R^T L, so L.w/2 = w.I w/2) and -M a_b . X with a_b its material's body acceleration.
+pub fn body_energy(clumps: &Clumps, body: &BodyAcceleration, b: usize) -> [f64; 3] {
+    let ty = &clumps.types[clumps.kind[b] as usize];
+    let a = glam::DVec3::from_array(body.per_material[ty.material as usize]);
+    [
+        0.5 * ty.mass * clumps.velocity[b].length_squared(),
+        0.5 * clumps.angular_momentum[b].dot(clumps.angular_velocity(b)),
+        -ty.mass * a.dot(clumps.position[b]),
+    ]
 }
 
 /// Hertz potential (2/5) c_n delta^(5/2) of a contact with overlap `delta`, elastic

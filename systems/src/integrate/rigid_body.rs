@@ -121,7 +121,7 @@ pub fn random_rotation(rng: &mut u64) -> DQuat {
 
 /// Find every member's row from its particle id (after an insertion), or follow a
 /// re-sort of the rows (`perm`: new row k holds old row perm[k]).
-fn follow_rows(clumps: &mut Clumps, particles: &Particles, perm: Option<&[u32]>) {
+pub(crate) fn follow_rows(clumps: &mut Clumps, particles: &Particles, perm: Option<&[u32]>) {
     if clumps.rows_stale {
         let max_id = particles
             .id
@@ -146,7 +146,13 @@ fn follow_rows(clumps: &mut Clumps, particles: &Particles, perm: Option<&[u32]>)
         );
         clumps.rows_stale = false;
     } else if let Some(perm) = perm {
-        let mut new_row = vec![u32::MAX; perm.len().max(particles.len())];
+        // Old rows reach past the new row count when rows were dropped (a sink).
+        let old_rows = clumps
+            .member_row
+            .iter()
+            .max()
+            .map_or(0, |&r| r as usize + 1);
+        let mut new_row = vec![u32::MAX; old_rows.max(perm.len())];
         for (k, &old) in perm.iter().enumerate() {
             if let Some(slot) = new_row.get_mut(old as usize) {
                 *slot = k as u32;
