@@ -55,6 +55,9 @@ pub(crate) fn wall_contacts<D: NormalDamping>(
     let base = entries.start;
     for (w, wall) in walls.list.iter().enumerate() {
         let shape = WallLanes::new(&wall.shape);
+        let mut flush = |pending: &[usize; LANES], count: usize| {
+            wall_lanes::<D>(laws, p, (wall, &shape), wl, base, pending, count, hist, out)
+        };
         let mut pending = [0; LANES];
         let mut count = 0;
         for e in entries.clone() {
@@ -64,32 +67,12 @@ pub(crate) fn wall_contacts<D: NormalDamping>(
             pending[count] = e;
             count += 1;
             if count == LANES {
-                wall_lanes::<D>(
-                    laws,
-                    p,
-                    (wall, &shape),
-                    wl,
-                    base,
-                    &pending,
-                    count,
-                    hist,
-                    out,
-                );
+                flush(&pending, count);
                 count = 0;
             }
         }
         if count > 0 {
-            wall_lanes::<D>(
-                laws,
-                p,
-                (wall, &shape),
-                wl,
-                base,
-                &pending,
-                count,
-                hist,
-                out,
-            );
+            flush(&pending, count);
         }
     }
 }
